@@ -1,0 +1,1 @@
+//! The sketchslam HTTP API.

@@ -1,0 +1,3 @@
+//! `slam-service`: a thin `main` over the service runtime.
+
+fn main() {}

@@ -1,0 +1,1 @@
+//! Evaluation and multi-process test support for sketchslam.
