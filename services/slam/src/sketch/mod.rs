@@ -64,3 +64,32 @@ impl Sketch {
         u >= 0.0 && v >= 0.0 && u < self.width_px as f64 && v < self.height_px as f64
     }
 }
+
+/// A robot pose on the drawing with the drawing's scale: what MCL on the sketch estimates.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+pub struct SketchPose {
+    /// Column, pixels from the left edge.
+    pub u_px: f64,
+    /// Row, pixels from the top edge.
+    pub v_px: f64,
+    /// Heading, radians counter-clockwise from +u as the drawing is seen (`x = u, y = −v`).
+    pub heading_rad: f64,
+    /// The drawing's scale around this pose, meters per pixel (the paper's `s`).
+    pub meters_per_pixel: f64,
+}
+
+impl SketchPose {
+    /// Moves the pose by a robot-frame increment given in meters (forward `dx`, left `dy`,
+    /// turn `dθ`), converting lengths with this pose's own scale — eq. (1)–(2) without noise.
+    pub fn advanced(&self, dx_m: f64, dy_m: f64, dtheta_rad: f64) -> SketchPose {
+        let (s, c) = self.heading_rad.sin_cos();
+        let (dx_px, dy_px) = (dx_m / self.meters_per_pixel, dy_m / self.meters_per_pixel);
+        // x = u, y = −v: a step along +y is a step towards smaller v.
+        SketchPose {
+            u_px: self.u_px + c * dx_px - s * dy_px,
+            v_px: self.v_px - (s * dx_px + c * dy_px),
+            heading_rad: sketchslam_shared::wrap_angle(self.heading_rad + dtheta_rad),
+            meters_per_pixel: self.meters_per_pixel,
+        }
+    }
+}
