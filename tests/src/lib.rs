@@ -1,1 +1,4 @@
-//! Evaluation and multi-process test support for sketchslam.
+//! Evaluation and multi-process test support for sketchslam: the accuracy metrics of
+//! DESIGN.md, the runs `evaluate` performs, and helpers that launch the real binaries.
+
+pub mod metrics;
