@@ -5,6 +5,8 @@
 //! counter-clockwise from the image's +u axis *as the drawing is seen*, i.e. in the frame
 //! `x = u`, `y = −v`: heading θ moves a point by `(du, dv) = (cos θ, −sin θ)`.
 
+pub mod raycast;
+
 use sketchslam_shared::Point2;
 
 /// One straight wall of the drawing, in sketch pixels.
