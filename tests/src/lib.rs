@@ -2,3 +2,4 @@
 //! DESIGN.md, the runs `evaluate` performs, and helpers that launch the real binaries.
 
 pub mod metrics;
+pub mod processes;
