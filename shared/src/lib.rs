@@ -6,6 +6,7 @@
 //! in nanoseconds of the publisher's clock (`stamp_ns`).
 
 pub mod geometry;
+pub mod ipc;
 pub mod messages;
 pub mod names;
 
