@@ -20,6 +20,9 @@ pub enum EngineError {
     /// Strokes were found but no line could be extracted from them.
     #[error("no lines found in the drawing")]
     NoLines,
+    /// A map file (PGM image or map_server YAML) that does not parse.
+    #[error("malformed map file: {0}")]
+    MapFormat(String),
     /// A parameter is out of its domain (non-finite, negative, outside the sketch, ...).
     #[error("invalid {name}: {reason}")]
     InvalidParameter {

@@ -12,6 +12,8 @@
 //! Nothing here does I/O, spawns threads or reads clocks: random draws take an `Rng`.
 
 pub mod error;
+pub mod grid;
+pub mod grid_export;
 pub mod sketch;
 
 pub use error::EngineError;
