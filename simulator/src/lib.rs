@@ -1,2 +1,25 @@
 //! The sensor simulator: it owns the truth (world, robot motion, sensor and odometry
 //! models) and publishes only what a real robot driver would, over iceoryx2.
+//!
+//! Pipeline: [`scenario`] loads a scenario folder; [`world`] holds the truth grid and casts
+//! rays; [`motion`] is the true trajectory; [`odometry`] and [`lidar`] are the sensor
+//! models; [`simulation`] streams their messages in stamp order; [`truth`] writes the true
+//! poses; [`render`] draws a scenario.
+
+pub mod error;
+pub mod lidar;
+pub mod motion;
+pub mod odometry;
+pub mod publish;
+pub mod render;
+pub mod scenario;
+pub mod simulation;
+pub mod truth;
+pub mod world;
+
+pub use error::SimError;
+pub use scenario::{
+    LidarConfig, OdometryConfig, RobotConfig, Scenario, SketchConfig, WorldConfig,
+};
+pub use simulation::{SimStep, Simulation};
+pub use world::World;
