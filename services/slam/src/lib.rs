@@ -14,6 +14,9 @@
 pub mod error;
 pub mod grid;
 pub mod grid_export;
+pub mod line_observation;
+pub mod mcl;
+pub mod recovery;
 pub mod sketch;
 
 pub use error::EngineError;
