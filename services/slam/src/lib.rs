@@ -14,8 +14,11 @@
 pub mod error;
 pub mod grid;
 pub mod grid_export;
+pub mod icp;
+pub mod line_match;
 pub mod line_observation;
 pub mod mcl;
+pub mod ransac;
 pub mod recovery;
 pub mod sketch;
 
