@@ -675,6 +675,16 @@ impl Ctx<'_> {
             Some(span) if span.start > 0 => line.and_then(|l| self.key_at_line(l)),
             _ => None,
         };
+        // "missing field `x`" points at the table that lacks it: name the full key.
+        let missing = e
+            .message()
+            .strip_prefix("missing field `")
+            .and_then(|rest| rest.split('`').next());
+        let key = match (key, missing) {
+            (Some(table), Some(field)) => Some(format!("{table}.{field}")),
+            (None, Some(field)) => Some(field.to_string()),
+            (key, None) => key,
+        };
         SimError::Parse {
             file: self.file.to_path_buf(),
             line,
