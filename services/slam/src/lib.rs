@@ -17,6 +17,7 @@ pub mod grid_export;
 pub mod icp;
 pub mod line_match;
 pub mod line_observation;
+pub mod mapper;
 pub mod mcl;
 pub mod ransac;
 pub mod recovery;
