@@ -5,7 +5,19 @@
 //! counter-clockwise from the image's +u axis *as the drawing is seen*, i.e. in the frame
 //! `x = u`, `y = −v`: heading θ moves a point by `(du, dv) = (cos θ, −sin θ)`.
 
+pub mod font;
+pub mod hough;
+pub mod ingest;
+pub mod merge;
+pub mod overlay;
 pub mod raycast;
+pub mod thinning;
+pub mod threshold;
+
+pub use hough::LineExtractionConfig;
+pub use ingest::{SketchLimits, SketchOptions};
+pub use overlay::{encode_png, render_overlay};
+pub use threshold::ThresholdConfig;
 
 use sketchslam_shared::Point2;
 
