@@ -1,1 +1,28 @@
-//! The sketchslam HTTP API.
+//! The sketchslam HTTP API: request/response types, errors as JSON, the axum router over a
+//! [`Backend`], the OpenAPI document and a typed client.
+//!
+//! The crate knows nothing of the mapping engine: the service runtime implements
+//! [`Backend`] and serves [`router`]; tests can do the same with an in-memory fake.
+//!
+//! ```no_run
+//! # async fn demo() -> Result<(), sketchslam_api::ClientError> {
+//! let client = sketchslam_api::SketchslamClient::new("http://127.0.0.1:8080");
+//! let sketches = client.list_sketches().await?;
+//! println!("{} sketches", sketches.sketches.len());
+//! # Ok(()) }
+//! ```
+
+pub mod backend;
+pub mod client;
+pub mod error;
+pub mod extract;
+pub mod openapi;
+pub mod router;
+pub mod types;
+
+pub use backend::Backend;
+pub use client::{ClientError, EventStream, SketchslamClient};
+pub use error::{ApiError, ErrorBody, ErrorDetail};
+pub use openapi::ApiDoc;
+pub use router::{DEFAULT_MAX_BODY_BYTES, HttpMetrics, RouterOptions, router};
+pub use types::*;

@@ -1,0 +1,74 @@
+//! The OpenAPI document, generated from the handlers' `#[utoipa::path]` attributes and
+//! the types' `ToSchema` derives (never written by hand). Served at `/openapi.json`.
+
+use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
+use utoipa::{Modify, OpenApi};
+
+use crate::error::{ErrorBody, ErrorDetail};
+use crate::router;
+use crate::types::{
+    CreateSessionRequest, HealthResponse, MappingMethod, OccupancyGridResponse, PixelPoint,
+    Pose2Info, PoseResponse, SessionEvent, SessionInfo, SessionList, SessionState, SketchInfo,
+    SketchLineInfo, SketchList, SketchPoseInfo, SketchStart, SketchSummary, TrajectoryPointInfo,
+    TrajectoryResponse,
+};
+
+/// The sketchslam HTTP API.
+#[derive(OpenApi)]
+#[openapi(
+    info(
+        title = "sketchslam",
+        description = "Metric maps from 2D LiDAR and odometry with a hand-drawn sketch as prior. \
+                       Errors are `{\"error\": {\"code\", \"message\"}}`. When the service has a \
+                       token, every request except /healthz needs `Authorization: Bearer <token>`."
+    ),
+    paths(
+        router::healthz,
+        router::metrics,
+        router::openapi_json,
+        router::create_sketch,
+        router::list_sketches,
+        router::get_sketch,
+        router::sketch_overlay,
+        router::delete_sketch,
+        router::create_session,
+        router::list_sessions,
+        router::get_session,
+        router::stop_session,
+        router::session_pose,
+        router::session_trajectory,
+        router::session_map_json,
+        router::session_map_png,
+        router::session_map_pgm,
+        router::session_map_yaml,
+        router::session_events,
+    ),
+    components(schemas(
+        ErrorBody, ErrorDetail, CreateSessionRequest, HealthResponse, MappingMethod,
+        OccupancyGridResponse, PixelPoint, Pose2Info, PoseResponse, SessionEvent, SessionInfo,
+        SessionList, SessionState, SketchInfo, SketchLineInfo, SketchList, SketchPoseInfo,
+        SketchStart, SketchSummary, TrajectoryPointInfo, TrajectoryResponse,
+    )),
+    modifiers(&BearerAuth),
+    security(("bearer" = [])),
+    tags(
+        (name = "sketches", description = "Hand-drawn maps"),
+        (name = "sessions", description = "Mapping sessions, one robot each"),
+        (name = "maps", description = "The maps sessions build"),
+        (name = "service", description = "Health, metrics, this document"),
+    )
+)]
+pub struct ApiDoc;
+
+/// Declares the optional bearer token scheme.
+struct BearerAuth;
+
+impl Modify for BearerAuth {
+    fn modify(&self, openapi: &mut utoipa::openapi::OpenApi) {
+        let components = openapi.components.get_or_insert_with(Default::default);
+        components.add_security_scheme(
+            "bearer",
+            SecurityScheme::Http(HttpBuilder::new().scheme(HttpAuthScheme::Bearer).build()),
+        );
+    }
+}

@@ -1,0 +1,412 @@
+//! Request and response bodies of the HTTP API.
+//!
+//! Units follow the rest of sketchslam: map-frame lengths in meters, map-frame angles in
+//! radians (`theta`), sketch positions in pixels from the image's top-left corner (`u`
+//! right, `v` down), sketch headings in degrees counter-clockwise from the image's +u axis
+//! (as in `scenario.toml`), stamps in seconds of the publisher's clock. The pose response
+//! also carries the words of VDA 5050's `agvPosition` (`mapId`, `positionInitialized`,
+//! `localizationScore`) so fleet managers can pass it through unchanged.
+
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use crate::error::ApiError;
+
+/// A point on a sketch, pixels from the top-left corner.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct PixelPoint {
+    /// Column, pixels from the left edge.
+    pub u: f64,
+    /// Row, pixels from the top edge.
+    pub v: f64,
+}
+
+/// One straight line extracted from a sketch.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct SketchLineInfo {
+    /// The line's number in its sketch, from 0.
+    pub index: usize,
+    /// First endpoint.
+    pub a: PixelPoint,
+    /// Second endpoint.
+    pub b: PixelPoint,
+    /// Direction in degrees in [0, 180), counter-clockwise from +u as the drawing is seen.
+    pub angle_deg: f64,
+    /// Length in pixels.
+    pub length_px: f64,
+}
+
+/// An uploaded sketch without its lines (list entries).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct SketchSummary {
+    /// Sketch id (UUID v4).
+    pub id: String,
+    /// The name given at upload, if any.
+    pub name: Option<String>,
+    /// Image width, pixels.
+    pub width_px: u32,
+    /// Image height, pixels.
+    pub height_px: u32,
+    /// Number of extracted lines.
+    pub line_count: usize,
+    /// Upload time, milliseconds since the Unix epoch.
+    pub created_unix_ms: u64,
+}
+
+/// An uploaded sketch with its extracted lines.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct SketchInfo {
+    /// Sketch id (UUID v4).
+    pub id: String,
+    /// The name given at upload, if any.
+    pub name: Option<String>,
+    /// Image width, pixels.
+    pub width_px: u32,
+    /// Image height, pixels.
+    pub height_px: u32,
+    /// Upload time, milliseconds since the Unix epoch.
+    pub created_unix_ms: u64,
+    /// The extracted lines.
+    pub lines: Vec<SketchLineInfo>,
+}
+
+impl SketchInfo {
+    /// The list entry of this sketch.
+    pub fn summary(&self) -> SketchSummary {
+        SketchSummary {
+            id: self.id.clone(),
+            name: self.name.clone(),
+            width_px: self.width_px,
+            height_px: self.height_px,
+            line_count: self.lines.len(),
+            created_unix_ms: self.created_unix_ms,
+        }
+    }
+}
+
+/// `GET /v1/sketches`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct SketchList {
+    /// Every stored sketch, oldest first.
+    pub sketches: Vec<SketchSummary>,
+}
+
+/// How a session builds its map.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum MappingMethod {
+    /// The hand-drawn-map method (needs `sketch_id`, `start`, `meters_per_pixel`).
+    Sketch,
+    /// Baseline: scan-to-map ICP without the sketch.
+    Icp,
+    /// Baseline: the map from dead reckoning alone.
+    Odometry,
+}
+
+impl MappingMethod {
+    /// The lowercase name used in JSON and metrics.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Self::Sketch => "sketch",
+            Self::Icp => "icp",
+            Self::Odometry => "odometry",
+        }
+    }
+}
+
+/// Where a person marked the robot's start on the sketch.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SketchStart {
+    /// Column, pixels from the left edge.
+    #[schema(example = 66.9)]
+    pub u: f64,
+    /// Row, pixels from the top edge.
+    #[schema(example = 320.3)]
+    pub v: f64,
+    /// Heading, degrees counter-clockwise from the image's +u axis.
+    #[schema(example = 1.1)]
+    pub heading_deg: f64,
+}
+
+/// `POST /v1/sessions`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CreateSessionRequest {
+    /// The robot whose `scan` and `odom` services feed the session.
+    #[schema(example = "r1")]
+    pub robot_id: String,
+    /// The mapping method.
+    pub method: MappingMethod,
+    /// For `sketch`: the uploaded sketch to map with.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sketch_id: Option<String>,
+    /// For `sketch`: the start pose marked on the sketch.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start: Option<SketchStart>,
+    /// For `sketch`: a rough guess of the drawing's scale, meters per pixel (> 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(example = 0.1)]
+    pub meters_per_pixel: Option<f64>,
+}
+
+fn check_finite(field: &str, value: f64) -> Result<(), ApiError> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(ApiError::invalid_number(field, "must be a finite number"))
+    }
+}
+
+impl CreateSessionRequest {
+    /// Checks everything that does not need the registry: the robot id, the fields the
+    /// method needs, and that every number is finite and in range. The sketch's existence
+    /// and whether the start lies on it are the backend's to check.
+    pub fn validate(&self) -> Result<(), ApiError> {
+        sketchslam_shared::names::validate_segment("robot_id", &self.robot_id)
+            .map_err(|e| ApiError::invalid("invalid_robot_id", e.to_string()))?;
+        match self.method {
+            MappingMethod::Sketch => {
+                let sketch_id = self.sketch_id.as_deref().ok_or_else(|| {
+                    ApiError::invalid("missing_field", "sketch_id: required for method \"sketch\"")
+                })?;
+                if sketch_id.is_empty() {
+                    return Err(ApiError::invalid(
+                        "missing_field",
+                        "sketch_id: must not be empty",
+                    ));
+                }
+                let start = self.start.ok_or_else(|| {
+                    ApiError::invalid("missing_field", "start: required for method \"sketch\"")
+                })?;
+                check_finite("start.u", start.u)?;
+                check_finite("start.v", start.v)?;
+                check_finite("start.heading_deg", start.heading_deg)?;
+                if start.u < 0.0 {
+                    return Err(ApiError::invalid_number("start.u", "must not be negative"));
+                }
+                if start.v < 0.0 {
+                    return Err(ApiError::invalid_number("start.v", "must not be negative"));
+                }
+                let mpp = self.meters_per_pixel.ok_or_else(|| {
+                    ApiError::invalid(
+                        "missing_field",
+                        "meters_per_pixel: required for method \"sketch\"",
+                    )
+                })?;
+                check_finite("meters_per_pixel", mpp)?;
+                if mpp <= 0.0 {
+                    return Err(ApiError::invalid_number(
+                        "meters_per_pixel",
+                        "must be greater than 0",
+                    ));
+                }
+            }
+            MappingMethod::Icp | MappingMethod::Odometry => {
+                if self.sketch_id.is_some()
+                    || self.start.is_some()
+                    || self.meters_per_pixel.is_some()
+                {
+                    return Err(ApiError::invalid(
+                        "unexpected_field",
+                        format!(
+                            "sketch_id, start and meters_per_pixel apply to method \"sketch\" only, not {:?}",
+                            self.method.as_str()
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The life of a session.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum SessionState {
+    /// Subscribed, no scan received yet.
+    WaitingForData,
+    /// Scans are being processed.
+    Mapping,
+    /// Stopped by a client or by shutdown; the map and trajectory are kept.
+    Stopped,
+    /// The mapper failed; `last_error` says why.
+    Failed,
+}
+
+/// The status of a session.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct SessionInfo {
+    /// Session id (UUID v4).
+    pub id: String,
+    /// The robot mapped.
+    pub robot_id: String,
+    /// The mapping method.
+    pub method: MappingMethod,
+    /// The sketch used (method `sketch`).
+    pub sketch_id: Option<String>,
+    /// The start marked on the sketch (method `sketch`).
+    pub start: Option<SketchStart>,
+    /// The scale guess given at the start (method `sketch`).
+    pub meters_per_pixel_guess: Option<f64>,
+    /// Where the session is in its life.
+    pub state: SessionState,
+    /// Scans fused so far.
+    pub scans_processed: u64,
+    /// Scans (and odometry samples) the intake knows were lost: publisher gaps, restarts.
+    pub scans_lost: u64,
+    /// Localization health in [0, 1] (VDA 5050 `localizationScore`).
+    pub localization_score: f64,
+    /// How often localization on the sketch recovered from a breakdown.
+    pub recoveries: u64,
+    /// The sketch's scale as currently estimated, meters per pixel.
+    pub estimated_meters_per_pixel: Option<f64>,
+    /// The last error of the mapper or intake, if any.
+    pub last_error: Option<String>,
+    /// Start time, milliseconds since the Unix epoch.
+    pub created_unix_ms: u64,
+    /// Stop time, milliseconds since the Unix epoch.
+    pub stopped_unix_ms: Option<u64>,
+}
+
+/// `GET /v1/sessions`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct SessionList {
+    /// Every session, running and stopped, oldest first.
+    pub sessions: Vec<SessionInfo>,
+}
+
+/// The robot's pose on the sketch, with the drawing's estimated scale.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct SketchPoseInfo {
+    /// Column, pixels.
+    pub u: f64,
+    /// Row, pixels.
+    pub v: f64,
+    /// Heading, degrees counter-clockwise from +u.
+    pub heading_deg: f64,
+    /// Estimated scale around the robot, meters per pixel.
+    pub meters_per_pixel: f64,
+}
+
+/// `GET /v1/sessions/{id}/pose`: the latest pose estimate.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct PoseResponse {
+    /// The session.
+    pub session_id: String,
+    /// Map-frame x, meters.
+    pub x: f64,
+    /// Map-frame y, meters.
+    pub y: f64,
+    /// Map-frame heading, radians.
+    pub theta: f64,
+    /// Stamp of the scan behind the estimate, seconds; null before the first scan.
+    pub stamp: Option<f64>,
+    /// The pose on the sketch (method `sketch` only).
+    pub sketch: Option<SketchPoseInfo>,
+    /// VDA 5050: the map the position refers to (the session id).
+    #[serde(rename = "mapId")]
+    pub map_id: String,
+    /// VDA 5050: whether the position is initialized (a scan has been processed).
+    #[serde(rename = "positionInitialized")]
+    pub position_initialized: bool,
+    /// VDA 5050: localization quality in [0, 1].
+    #[serde(rename = "localizationScore")]
+    pub localization_score: f64,
+}
+
+/// One pose of a trajectory.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct TrajectoryPointInfo {
+    /// Stamp, seconds.
+    pub t: f64,
+    /// Map-frame x, meters.
+    pub x: f64,
+    /// Map-frame y, meters.
+    pub y: f64,
+    /// Map-frame heading, radians.
+    pub theta: f64,
+}
+
+/// `GET /v1/sessions/{id}/trajectory`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct TrajectoryResponse {
+    /// The session.
+    pub session_id: String,
+    /// One pose per processed scan, in stamp order.
+    pub points: Vec<TrajectoryPointInfo>,
+}
+
+impl TrajectoryResponse {
+    /// The trajectory as `trajectory.csv`: header `t,x,y,theta`.
+    pub fn to_csv(&self) -> String {
+        let mut out = String::with_capacity(32 + self.points.len() * 48);
+        out.push_str("t,x,y,theta\n");
+        for p in &self.points {
+            out.push_str(&format!(
+                "{:.9},{:.6},{:.6},{:.6}\n",
+                p.t, p.x, p.y, p.theta
+            ));
+        }
+        out
+    }
+}
+
+/// A pose in the plane (the grid's origin).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct Pose2Info {
+    /// Meters.
+    pub x: f64,
+    /// Meters.
+    pub y: f64,
+    /// Radians.
+    pub theta: f64,
+}
+
+/// `GET /v1/sessions/{id}/map`: occupancy as ROS `nav_msgs/OccupancyGrid`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct OccupancyGridResponse {
+    /// The session.
+    pub session_id: String,
+    /// The frame of the grid (`map`).
+    pub frame_id: String,
+    /// Cells along x.
+    pub width: u32,
+    /// Cells along y.
+    pub height: u32,
+    /// Meters per cell.
+    pub resolution: f64,
+    /// The map-frame pose of cell (0, 0)'s outer corner.
+    pub origin: Pose2Info,
+    /// Row-major from the row at `origin` (lowest y) upwards: -1 unknown, 0..100 occupancy.
+    pub data: Vec<i8>,
+}
+
+/// `GET /healthz`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct HealthResponse {
+    /// `ok`.
+    pub status: String,
+}
+
+/// What `GET /v1/sessions/{id}/events` streams (server-sent events named `pose` and
+/// `status`, the data being the JSON of the matching response type).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(tag = "type", content = "data", rename_all = "snake_case")]
+pub enum SessionEvent {
+    /// A new pose estimate.
+    Pose(PoseResponse),
+    /// A change of the session's status (state, error, ...).
+    Status(SessionInfo),
+}
+
+impl SessionEvent {
+    /// The SSE event name: `pose` or `status`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Pose(_) => "pose",
+            Self::Status(_) => "status",
+        }
+    }
+}
