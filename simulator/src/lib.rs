@@ -18,8 +18,6 @@ pub mod truth;
 pub mod world;
 
 pub use error::SimError;
-pub use scenario::{
-    LidarConfig, OdometryConfig, RobotConfig, Scenario, SketchConfig, WorldConfig,
-};
+pub use scenario::{LidarConfig, OdometryConfig, RobotConfig, Scenario, SketchConfig, WorldConfig};
 pub use simulation::{SimStep, Simulation};
 pub use world::World;
