@@ -215,7 +215,9 @@ impl Scenario {
     /// every straight path leg free of walls; sketch starts finite and on their image;
     /// unique sketch names.
     pub fn load(dir: &Path) -> Result<Scenario, SimError> {
-        let dir = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
+        let dir = std::fs::canonicalize(dir)
+            .or_else(|_| std::path::absolute(dir))
+            .unwrap_or_else(|_| dir.to_path_buf());
         let file = dir.join(SCENARIO_FILE);
         let source = std::fs::read_to_string(&file).map_err(|source| SimError::Io {
             file: file.clone(),

@@ -24,8 +24,10 @@ pub struct World {
     width: usize,
     height: usize,
     resolution_m: f64,
-    /// Row-major from the bottom row (`j = 0`) up: `walls[j·width + i]`.
-    walls: Vec<bool>,
+    /// The grid with a one-cell wall border, row-major from the bottom row up: cell
+    /// `(i, j)` is `padded[(j + 1)·(width + 2) + i + 1]`. The border stands for "outside is
+    /// wall" and lets the ray walk index without bounds tests on `i` and `j`.
+    padded: Vec<bool>,
 }
 
 /// Why a world could not be built from its parts.
@@ -87,16 +89,21 @@ impl World {
                 len: walls.len(),
             });
         }
-        // Flip rows so that grid row j grows with y.
-        let mut flipped = Vec::with_capacity(walls.len());
+        // Flip rows so that grid row j grows with y, and add the wall border.
+        let stride = width + 2;
+        let mut padded = Vec::with_capacity(stride * (height + 2));
+        padded.resize(stride, true);
         for row in walls.chunks_exact(width).rev() {
-            flipped.extend_from_slice(row);
+            padded.push(true);
+            padded.extend_from_slice(row);
+            padded.push(true);
         }
+        padded.resize(stride * (height + 2), true);
         Ok(World {
             width,
             height,
             resolution_m,
-            walls: flipped,
+            padded,
         })
     }
 
@@ -135,7 +142,7 @@ impl World {
         if i < 0 || j < 0 || i >= self.width as i64 || j >= self.height as i64 {
             return true;
         }
-        self.walls[j as usize * self.width + i as usize]
+        self.padded[self.padded_index(i, j)]
     }
 
     /// True when the point `p` (meters, world frame) is in a wall cell, outside the world, or
@@ -146,6 +153,11 @@ impl World {
         }
         let (i, j) = self.cell_of(p);
         self.is_wall_cell(i, j)
+    }
+
+    /// Index in `padded` of the in-grid cell `(i, j)`.
+    fn padded_index(&self, i: i64, j: i64) -> usize {
+        (j + 1) as usize * (self.width + 2) + (i + 1) as usize
     }
 
     /// The cell holding `p`, which must be finite.
@@ -218,27 +230,34 @@ impl World {
         let r = self.resolution_m;
         let (ox, oy) = (origin.x / r, origin.y / r);
         let max_t = max_range_m / r;
-        let (mut i, mut j) = (ox.floor() as i64, oy.floor() as i64);
+        let (i, j) = (ox.floor() as i64, oy.floor() as i64);
 
         let (step_i, mut t_max_x, t_delta_x) = axis_setup(ox, i, dx);
         let (step_j, mut t_max_y, t_delta_y) = axis_setup(oy, j, dy);
+        // Walk the padded index directly: ±1 per column, ±stride per row. The origin is
+        // in the grid (checked above) and the walk stops at the wall border at the latest,
+        // so the index stays inside `padded`.
+        let step_x = step_i as isize;
+        let step_y = step_j as isize * (self.width + 2) as isize;
+        let mut index = self.padded_index(i, j);
 
         loop {
             let t = if t_max_x <= t_max_y {
                 let t = t_max_x;
-                i += step_i;
+                index = index.wrapping_add_signed(step_x);
                 t_max_x += t_delta_x;
                 t
             } else {
                 let t = t_max_y;
-                j += step_j;
+                index = index.wrapping_add_signed(step_y);
                 t_max_y += t_delta_y;
                 t
             };
             if t > max_t {
                 return None;
             }
-            if self.is_wall_cell(i, j) {
+            // `get` keeps a logic error from becoming a panic: off the grid is wall.
+            if self.padded.get(index).copied().unwrap_or(true) {
                 return Some(t * r);
             }
         }

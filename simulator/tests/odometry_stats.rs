@@ -54,9 +54,9 @@ fn drive(seed: u64, truth: &[Pose2]) -> Pose2 {
 
 #[test]
 fn straight_twenty_meters() {
-    let d_m = 20.0;
+    let d_m: f64 = 20.0;
     for step_m in [0.016, 0.16] {
-        let n = (d_m / step_m as f64).round() as usize;
+        let n = (d_m / step_m).round() as usize;
         let truth: Vec<Pose2> = (0..=n)
             .map(|k| Pose2::new(k as f64 * d_m / n as f64, 0.0, 0.0))
             .collect();
