@@ -89,13 +89,13 @@ pub fn observe_lines(
     config: &LineObservationConfig,
 ) -> Vec<LineObservation> {
     let s = pose.meters_per_pixel;
-    if !(pose.u_px.is_finite()
+    let valid = pose.u_px.is_finite()
         && pose.v_px.is_finite()
         && pose.heading_rad.is_finite()
         && s.is_finite()
-        && s > 0.0)
-        || !raycaster.contains(pose.u_px, pose.v_px)
-    {
+        && s > 0.0
+        && raycaster.contains(pose.u_px, pose.v_px);
+    if !valid {
         return Vec::new();
     }
     let n_lines = raycaster.lines().len();

@@ -84,9 +84,8 @@ impl FailureDetector {
         } else {
             self.low_frames += 1;
         }
-        if !(estimate.u_px.is_finite() && estimate.v_px.is_finite())
-            || !raycaster.contains(estimate.u_px, estimate.v_px)
-        {
+        // `contains` is false for non-finite coordinates.
+        if !raycaster.contains(estimate.u_px, estimate.v_px) {
             return Some(Failure::OutsideDrawing);
         }
         if raycaster.distance_to_wall_px(estimate.u_px, estimate.v_px)

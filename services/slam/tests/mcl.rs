@@ -21,7 +21,10 @@ const MPP: f64 = 0.05;
 const MARGIN_PX: f64 = 20.0;
 const HEIGHT_M: f64 = 12.0;
 
-fn sketch_from(width_px: u32, height_px: u32, segs: &[((f64, f64), (f64, f64))]) -> Sketch {
+/// A segment `((u_a, v_a), (u_b, v_b))`, pixels.
+type Segment = ((f64, f64), (f64, f64));
+
+fn sketch_from(width_px: u32, height_px: u32, segs: &[Segment]) -> Sketch {
     Sketch {
         width_px,
         height_px,
@@ -354,16 +357,17 @@ fn lines_in_view_are_observed_and_hidden_lines_are_not() {
 
 /// Runs MCL consistently along the bottom corridor; returns the MCL, the truth, the lines
 /// observed in the last frame and the rng.
-fn consistent_start(
-    seed: u64,
-) -> (
+/// What [`consistent_start`] hands over.
+type Consistent = (
     Sketch,
     SketchRaycaster,
     SketchMcl,
     SketchPose,
     Vec<usize>,
     ChaCha8Rng,
-) {
+);
+
+fn consistent_start(seed: u64) -> Consistent {
     let sketch = corridor_loop();
     let rc = SketchRaycaster::new(&sketch);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);

@@ -217,7 +217,7 @@ impl SketchRaycaster {
     /// Returns the first line crossed and the exact distance to it, or `None` when the ray
     /// leaves the image or reaches `max_range_px` first, or on non-finite input.
     pub fn cast(&self, u_px: f64, v_px: f64, angle_rad: f64, max_range_px: f64) -> Option<RayHit> {
-        if !(angle_rad.is_finite() && max_range_px > 0.0) || !self.contains(u_px, v_px) {
+        if !(angle_rad.is_finite() && max_range_px > 0.0 && self.contains(u_px, v_px)) {
             return None;
         }
         let (sin, cos) = angle_rad.sin_cos();
