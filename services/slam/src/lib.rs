@@ -21,6 +21,7 @@ pub mod mapper;
 pub mod mcl;
 pub mod ransac;
 pub mod recovery;
+pub mod runtime;
 pub mod sketch;
 
 pub use error::EngineError;

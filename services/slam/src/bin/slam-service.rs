@@ -1,3 +1,90 @@
-//! `slam-service`: a thin `main` over the service runtime.
+//! `slam-service`: the sketchslam mapping service. A thin `main` over
+//! [`sketchslam_slam::runtime::run`]: flags (each also read from an environment variable),
+//! structured logs, a tokio runtime, and a clean shutdown on Ctrl-C or SIGTERM.
 
-fn main() {}
+use std::net::SocketAddr;
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Parser;
+use sketchslam_slam::runtime::{ServiceConfig, run};
+
+/// Builds metric maps from robots' LiDAR and odometry, with hand-drawn sketches as prior.
+#[derive(Debug, Parser)]
+#[command(name = "slam-service", version, about)]
+struct Args {
+    /// Address of the HTTP API (loopback by default).
+    #[arg(long, env = "SKETCHSLAM_LISTEN", default_value = "127.0.0.1:8080")]
+    listen: SocketAddr,
+    /// Where sketches and stopped sessions are stored.
+    #[arg(long, env = "SKETCHSLAM_DATA_DIR", default_value = "./data")]
+    data_dir: PathBuf,
+    /// iceoryx2 prefix shared with the robots' publishers (isolates parallel runs).
+    #[arg(long, env = "SKETCHSLAM_IPC_PREFIX", default_value = sketchslam_shared::DEFAULT_PREFIX)]
+    ipc_prefix: String,
+    /// How many sessions may run at once.
+    #[arg(long, env = "SKETCHSLAM_MAX_SESSIONS", default_value_t = 16)]
+    max_sessions: usize,
+    /// Largest accepted request body, bytes.
+    #[arg(long, env = "SKETCHSLAM_MAX_BODY_BYTES", default_value_t = sketchslam_api::DEFAULT_MAX_BODY_BYTES)]
+    max_body_bytes: usize,
+    /// Bearer token required on every request except /healthz (prefer the variable).
+    #[arg(long, env = "SKETCHSLAM_TOKEN", hide_env_values = true)]
+    token: Option<String>,
+    /// Log as JSON lines instead of text.
+    #[arg(long, env = "SKETCHSLAM_LOG_JSON")]
+    log_json: bool,
+}
+
+/// Completes on Ctrl-C or SIGTERM.
+async fn shutdown_signal() {
+    let ctrl_c = async {
+        if let Err(e) = tokio::signal::ctrl_c().await {
+            tracing::error!(error = %e, "cannot listen for Ctrl-C");
+            std::future::pending::<()>().await;
+        }
+    };
+    #[cfg(unix)]
+    let terminate = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(e) => {
+                tracing::error!(error = %e, "cannot listen for SIGTERM");
+                std::future::pending::<()>().await;
+            }
+        }
+    };
+    #[cfg(not(unix))]
+    let terminate = std::future::pending::<()>();
+    tokio::select! {
+        _ = ctrl_c => tracing::info!("Ctrl-C received"),
+        _ = terminate => tracing::info!("SIGTERM received"),
+    }
+}
+
+fn main() -> anyhow::Result<()> {
+    let args = Args::parse();
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let builder = tracing_subscriber::fmt().with_env_filter(filter);
+    if args.log_json {
+        builder.json().init();
+    } else {
+        builder.init();
+    }
+    let config = ServiceConfig {
+        listen: args.listen,
+        data_dir: args.data_dir,
+        ipc_prefix: args.ipc_prefix,
+        max_sessions: args.max_sessions,
+        token: args.token.filter(|t| !t.is_empty()),
+        max_body_bytes: args.max_body_bytes,
+        ..ServiceConfig::default()
+    };
+    let runtime = tokio::runtime::Runtime::new().context("starting the tokio runtime")?;
+    runtime
+        .block_on(run(config, shutdown_signal()))
+        .context("slam-service failed")
+}

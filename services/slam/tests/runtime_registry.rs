@@ -1,0 +1,388 @@
+//! Runtime tests against a real [`Registry`] on a temporary data dir, fed by an in-process
+//! iceoryx2 publisher on a unique prefix: sketch ingestion and start validation, a session's
+//! life (waiting → mapping → stopped), a publisher that restarts with a gap, and a restart
+//! of the registry on the same data dir (sketch and stopped session survive).
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use axum::body::Bytes;
+use sketchslam_api::{
+    ApiError, Backend, CreateSessionRequest, MappingMethod, SessionState, SketchStart,
+};
+use sketchslam_shared::ipc::{Delivery, IpcConfig, RobotPublisher};
+use sketchslam_shared::{Odometry, ScanHeader};
+use sketchslam_slam::runtime::{Registry, RegistryConfig};
+use sketchslam_slam::sketch::Sketch;
+
+/// A data dir removed on drop.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new() -> Self {
+        let p = std::env::temp_dir().join(format!("sketchslam-rt-{}", uuid::Uuid::new_v4()));
+        std::fs::create_dir_all(&p).unwrap();
+        TempDir(p)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn unique_prefix() -> String {
+    format!("rt{}", &uuid::Uuid::new_v4().simple().to_string()[..12])
+}
+
+fn registry(dir: &Path, prefix: &str) -> Registry {
+    Registry::open(RegistryConfig {
+        data_dir: dir.to_path_buf(),
+        ipc_prefix: prefix.to_string(),
+        max_sessions: 4,
+        mapper: Default::default(),
+    })
+    .unwrap()
+}
+
+fn sketch_a() -> Vec<u8> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../simulator/scenarios/paper-env1/sketch-a.png");
+    std::fs::read(p).unwrap()
+}
+
+fn code(e: ApiError) -> &'static str {
+    e.code()
+}
+
+/// Range from `(x, y)` along `angle` to the walls of the box [-5, 15] × [-5, 5].
+fn box_range(x: f64, y: f64, angle: f64) -> f32 {
+    let (c, s) = (angle.cos(), angle.sin());
+    let mut best = f64::INFINITY;
+    for (wall, horizontal) in [(-5.0, false), (15.0, false), (-5.0, true), (5.0, true)] {
+        let t = if horizontal {
+            if s.abs() < 1e-12 {
+                continue;
+            } else {
+                (wall - y) / s
+            }
+        } else if c.abs() < 1e-12 {
+            continue;
+        } else {
+            (wall - x) / c
+        };
+        if t > 0.0 {
+            best = best.min(t);
+        }
+    }
+    best as f32
+}
+
+/// Publishes `n` odometry + scan pairs of a robot driving along +x from `x0`.
+fn publish_run(publisher: &mut RobotPublisher, first_seq: u64, n: u64, x0: f64) {
+    let beams = 271u32;
+    let angle_min = -135f64.to_radians();
+    let inc = 270f64.to_radians() / (beams - 1) as f64;
+    for k in 0..n {
+        let seq = first_seq + k;
+        let stamp_ns = 1_000_000_000 + seq * 50_000_000;
+        let x = x0 + k as f64 * 0.05;
+        publisher
+            .publish_odometry(&Odometry {
+                sequence: seq,
+                stamp_ns,
+                x_m: x,
+                y_m: 0.0,
+                theta_rad: 0.0,
+            })
+            .unwrap();
+        let ranges: Vec<f32> = (0..beams)
+            .map(|i| box_range(x, 0.0, angle_min + i as f64 * inc))
+            .collect();
+        let header = ScanHeader {
+            sequence: seq,
+            stamp_ns,
+            angle_min_rad: angle_min as f32,
+            angle_increment_rad: inc as f32,
+            range_min_m: 0.05,
+            range_max_m: 30.0,
+            beam_count: beams,
+        };
+        publisher.publish_scan(&header, &ranges).unwrap();
+    }
+}
+
+fn wait_for(what: &str, timeout: Duration, mut f: impl FnMut() -> bool) {
+    let deadline = Instant::now() + timeout;
+    while !f() {
+        assert!(Instant::now() < deadline, "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Compares grids without printing megabytes on failure.
+fn assert_same_grid(
+    a: &sketchslam_api::OccupancyGridResponse,
+    b: &sketchslam_api::OccupancyGridResponse,
+) {
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    // JSON keeps 15-17 significant digits, not always the last bit.
+    for (x, y) in [
+        (a.resolution, b.resolution),
+        (a.origin.x, b.origin.x),
+        (a.origin.y, b.origin.y),
+        (a.origin.theta, b.origin.theta),
+    ] {
+        assert!((x - y).abs() < 1e-9, "{x} != {y}");
+    }
+    let differing = a.data.iter().zip(&b.data).filter(|(x, y)| x != y).count();
+    assert_eq!(differing, 0, "{differing} cells differ");
+}
+
+#[test]
+fn sketches_are_ingested_and_starts_validated() {
+    let dir = TempDir::new();
+    let reg = registry(&dir.0, &unique_prefix());
+    let png = sketch_a();
+    let info = reg
+        .create_sketch(Some("A".into()), Bytes::from(png.clone()))
+        .unwrap();
+    assert!(info.lines.len() >= 4, "{} lines", info.lines.len());
+    assert!(
+        reg.sketch_overlay_png(&info.id)
+            .unwrap()
+            .starts_with(b"\x89PNG")
+    );
+
+    assert_eq!(
+        code(
+            reg.create_sketch(None, Bytes::from_static(b"not an image"))
+                .unwrap_err()
+        ),
+        "invalid_image"
+    );
+    // A blank white picture: decodes, but has no lines.
+    let mut blank = Vec::new();
+    image::RgbImage::from_pixel(64, 64, image::Rgb([255, 255, 255]))
+        .write_to(
+            &mut std::io::Cursor::new(&mut blank),
+            image::ImageFormat::Png,
+        )
+        .unwrap();
+    assert_eq!(
+        code(reg.create_sketch(None, Bytes::from(blank)).unwrap_err()),
+        "no_lines"
+    );
+    assert_eq!(reg.list_sketches().unwrap().len(), 1);
+
+    let request = |u: f64, v: f64| CreateSessionRequest {
+        robot_id: "r1".into(),
+        method: MappingMethod::Sketch,
+        sketch_id: Some(info.id.clone()),
+        start: Some(SketchStart {
+            u,
+            v,
+            heading_deg: 1.1,
+        }),
+        meters_per_pixel: Some(0.1),
+    };
+    let outside = reg
+        .create_session(request(info.width_px as f64 + 3.0, 10.0))
+        .unwrap_err();
+    assert_eq!(code(outside.clone()), "invalid_start", "{outside}");
+    assert!(outside.to_string().contains("start"));
+    // A pixel on a stroke.
+    let sketch = Sketch::from_image_bytes(&png).unwrap();
+    let on_stroke = sketch.strokes.iter().position(|&s| s).unwrap();
+    let (u, v) = (
+        (on_stroke % sketch.width_px as usize) as f64 + 0.5,
+        (on_stroke / sketch.width_px as usize) as f64 + 0.5,
+    );
+    assert_eq!(
+        code(reg.create_session(request(u, v)).unwrap_err()),
+        "invalid_start"
+    );
+    let mut unknown = request(66.9, 320.3);
+    unknown.sketch_id = Some("nope".into());
+    assert_eq!(
+        code(reg.create_session(unknown).unwrap_err()),
+        "sketch_not_found"
+    );
+    assert!(reg.list_sessions().unwrap().is_empty());
+
+    // The scenario's marked start is accepted; the robot is then busy.
+    let s = reg.create_session(request(66.9, 320.3)).unwrap();
+    assert_eq!(s.state, SessionState::WaitingForData);
+    assert_eq!(
+        code(reg.create_session(request(66.9, 320.3)).unwrap_err()),
+        "robot_busy"
+    );
+    reg.stop_session(&s.id).unwrap();
+    reg.delete_sketch(&info.id).unwrap();
+    assert_eq!(
+        code(reg.get_sketch(&info.id).unwrap_err()),
+        "sketch_not_found"
+    );
+    reg.shutdown();
+}
+
+#[test]
+fn a_session_maps_counts_gaps_and_survives_a_restart() {
+    let dir = TempDir::new();
+    let prefix = unique_prefix();
+    let reg = registry(&dir.0, &prefix);
+    let sketch = reg
+        .create_sketch(Some("A".into()), Bytes::from(sketch_a()))
+        .unwrap();
+    let session = reg
+        .create_session(CreateSessionRequest {
+            robot_id: "bot".into(),
+            method: MappingMethod::Icp,
+            sketch_id: None,
+            start: None,
+            meters_per_pixel: None,
+        })
+        .unwrap();
+    let id = session.id.clone();
+    let mut events = reg.subscribe_events(&id).unwrap();
+    assert!(!reg.pose(&id).unwrap().position_initialized);
+
+    // The publisher starts after the session, sends 20 scans, and goes away.
+    let ipc = IpcConfig::new(&prefix).unwrap();
+    {
+        let mut publisher = RobotPublisher::new(&ipc, "bot", Delivery::lock_step()).unwrap();
+        assert!(
+            publisher
+                .wait_for_subscribers(1, Duration::from_secs(10))
+                .unwrap()
+        );
+        publish_run(&mut publisher, 0, 20, 0.0);
+    }
+    wait_for("20 scans", Duration::from_secs(20), || {
+        reg.get_session(&id).unwrap().scans_processed == 20
+    });
+    let info = reg.get_session(&id).unwrap();
+    assert_eq!(info.state, SessionState::Mapping);
+    assert_eq!(info.scans_lost, 0);
+    // It comes back with a gap of 5 sequence numbers.
+    {
+        let mut publisher = RobotPublisher::new(&ipc, "bot", Delivery::lock_step()).unwrap();
+        assert!(
+            publisher
+                .wait_for_subscribers(1, Duration::from_secs(10))
+                .unwrap()
+        );
+        publish_run(&mut publisher, 25, 10, 1.25);
+    }
+    wait_for("30 scans", Duration::from_secs(20), || {
+        reg.get_session(&id).unwrap().scans_processed == 30
+    });
+    wait_for("the gap", Duration::from_secs(5), || {
+        reg.get_session(&id).unwrap().scans_lost == 5
+    });
+    let pose = reg.pose(&id).unwrap();
+    assert!(pose.position_initialized);
+    assert!((pose.x - 1.70).abs() < 0.2, "x = {}", pose.x);
+    assert!(pose.sketch.is_none());
+    // The live feed saw the status change and poses.
+    let mut saw_pose = false;
+    let mut saw_mapping = false;
+    while let Ok(e) = events.try_recv() {
+        match e {
+            sketchslam_api::SessionEvent::Pose(_) => saw_pose = true,
+            sketchslam_api::SessionEvent::Status(s) => {
+                saw_mapping |= s.state == SessionState::Mapping
+            }
+        }
+    }
+    assert!(saw_pose && saw_mapping);
+    let live_grid = reg.map_occupancy(&id).unwrap();
+    assert!(live_grid.data.iter().any(|&v| v >= 65));
+    let metrics = reg.metrics_text();
+    assert!(
+        metrics.contains(&format!(
+            "sketchslam_scans_processed_total{{session=\"{id}\",robot=\"bot\",method=\"icp\"}} 30"
+        )),
+        "{metrics}"
+    );
+    assert!(
+        metrics.contains("sketchslam_scan_processing_seconds_count 30"),
+        "{metrics}"
+    );
+
+    let stopped = reg.stop_session(&id).unwrap();
+    assert_eq!(stopped.state, SessionState::Stopped);
+    assert!(stopped.stopped_unix_ms.is_some());
+    // The robot may map again once its session stopped.
+    let trajectory = reg.trajectory(&id).unwrap();
+    let map_png = reg.map_png(&id).unwrap();
+    let map_yaml = reg.map_yaml(&id).unwrap();
+    let map_json = reg.map_occupancy(&id).unwrap();
+    assert_same_grid(&map_json, &live_grid);
+    assert!(map_yaml.contains("image: map.pgm"));
+    assert!(trajectory.points.len() >= 30);
+    assert!(dir.0.join(format!("sessions/{id}/trajectory.csv")).exists());
+    reg.shutdown();
+    drop(reg);
+
+    // A new registry on the same data dir serves the same things.
+    let reg = registry(&dir.0, &prefix);
+    assert_eq!(reg.get_sketch(&sketch.id).unwrap(), sketch);
+    let again = reg.get_session(&id).unwrap();
+    assert_eq!(again, stopped);
+    assert_eq!(reg.map_png(&id).unwrap(), map_png);
+    assert_eq!(reg.map_yaml(&id).unwrap(), map_yaml);
+    assert!(reg.map_pgm(&id).unwrap().starts_with(b"P5"));
+    assert_same_grid(&reg.map_occupancy(&id).unwrap(), &map_json);
+    let t2 = reg.trajectory(&id).unwrap();
+    assert_eq!(t2.points.len(), trajectory.points.len());
+    for (a, b) in t2.points.iter().zip(&trajectory.points) {
+        assert!(
+            (a.t - b.t).abs() < 1e-6
+                && (a.x - b.x).abs() < 1e-5
+                && (a.theta - b.theta).abs() < 1e-5
+        );
+    }
+    assert_eq!(reg.pose(&id).unwrap().x, reg.pose(&id).unwrap().x);
+    let mut rx = reg.subscribe_events(&id).unwrap();
+    assert!(matches!(
+        rx.try_recv(),
+        Err(tokio::sync::broadcast::error::TryRecvError::Closed)
+    ));
+    reg.shutdown();
+}
+
+#[test]
+fn fleets_run_side_by_side_within_the_limit() {
+    let dir = TempDir::new();
+    let reg = registry(&dir.0, &unique_prefix());
+    let req = |robot: &str| CreateSessionRequest {
+        robot_id: robot.into(),
+        method: MappingMethod::Odometry,
+        sketch_id: None,
+        start: None,
+        meters_per_pixel: None,
+    };
+    let ids: Vec<String> = (0..4)
+        .map(|i| reg.create_session(req(&format!("r{i}"))).unwrap().id)
+        .collect();
+    assert_eq!(
+        code(reg.create_session(req("r9")).unwrap_err()),
+        "too_many_sessions"
+    );
+    reg.stop_session(&ids[0]).unwrap();
+    reg.create_session(req("r9")).unwrap();
+    assert_eq!(reg.list_sessions().unwrap().len(), 5);
+    reg.shutdown();
+    assert!(
+        reg.list_sessions()
+            .unwrap()
+            .iter()
+            .all(|s| s.state == SessionState::Stopped)
+    );
+    assert_eq!(
+        code(reg.create_session(req("r10")).unwrap_err()),
+        "unavailable"
+    );
+}
