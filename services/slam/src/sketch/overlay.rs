@@ -60,7 +60,12 @@ pub fn render_overlay(sketch: &Sketch) -> RgbImage {
             let (x, y) = (a.x + t * (b.x - a.x), a.y + t * (b.y - a.y));
             for dy in -half..half {
                 for dx in -half..half {
-                    put(&mut img, x.floor() as i64 + dx, y.floor() as i64 + dy, colour);
+                    put(
+                        &mut img,
+                        x.floor() as i64 + dx,
+                        y.floor() as i64 + dy,
+                        colour,
+                    );
                 }
             }
         }

@@ -41,7 +41,7 @@ pub struct ThresholdConfig {
     /// Threshold in units of the estimated noise σ. Default 4.
     pub noise_k: f64,
     /// Components with fewer pixels than this fraction of the image diagonal are speckle.
-    /// Default 0.01 (at least 4 pixels).
+    /// Default 0.01 (at least the `(2r+1)² + 1` pixels a smoothed dot covers).
     pub min_component_frac: f64,
 }
 
@@ -131,11 +131,7 @@ pub fn detect_strokes(
     };
     let window_r = ((config.window_frac * w.max(h) as f64).round() as usize).max(7);
     let background = box_mean(&smooth, w, h, window_r);
-    let diff: Vec<f32> = smooth
-        .iter()
-        .zip(&background)
-        .map(|(s, m)| s - m)
-        .collect();
+    let diff: Vec<f32> = smooth.iter().zip(&background).map(|(s, m)| s - m).collect();
 
     // Robust noise level: MAD over a 1-grey-level histogram of d ∈ [−255, 255].
     let mut hist = vec![0u64; 511];
@@ -166,7 +162,9 @@ pub fn detect_strokes(
     let mut mask: Vec<bool> = diff.iter().map(|&d| sign * d > threshold).collect();
 
     let diagonal = ((w * w + h * h) as f64).sqrt();
-    let min_component = ((config.min_component_frac * diagonal).round() as usize).max(4);
+    // A one-pixel dot smoothed by the box becomes (2r + 1)² pixels: always speckle.
+    let smoothed_dot = (2 * config.smoothing_radius_px + 1).pow(2) + 1;
+    let min_component = ((config.min_component_frac * diagonal).round() as usize).max(smoothed_dot);
     remove_small_components(&mut mask, w, h, min_component);
     if mask.iter().filter(|&&m| m).count() < min_component {
         return Err(EngineError::NoStrokes);
@@ -263,6 +261,10 @@ mod tests {
     #[test]
     fn box_mean_of_constant_is_constant() {
         let src = vec![3.0f32; 7 * 5];
-        assert!(box_mean(&src, 7, 5, 2).iter().all(|&m| (m - 3.0).abs() < 1e-6));
+        assert!(
+            box_mean(&src, 7, 5, 2)
+                .iter()
+                .all(|&m| (m - 3.0).abs() < 1e-6)
+        );
     }
 }
