@@ -66,7 +66,7 @@ fn run(scenario_name: &str, sketch_name: &str, every_nth_scan: usize) -> RunSumm
             SensorEvent::Odometry(o) => odom_now = Some(o.pose()),
             SensorEvent::Scan(scan) => {
                 scan_k += 1;
-                if scan_k % every_nth_scan != 0 {
+                if !scan_k.is_multiple_of(every_nth_scan) {
                     continue;
                 }
                 let Some(now) = odom_now else { continue };
