@@ -2,4 +2,6 @@
 //! DESIGN.md, the runs `evaluate` performs, and helpers that launch the real binaries.
 
 pub mod metrics;
+pub mod overlay;
 pub mod processes;
+pub mod run;

@@ -106,8 +106,18 @@ pub struct MapperConfig {
     pub mcl: MclConfig,
     /// ICP (both the baseline and the sketch method's translation step).
     pub icp: IcpConfig,
-    /// Reference of the sketch method's translation ICP.
+    /// Reference of the sketch method's ICP.
     pub sketch_icp_reference: IcpReference,
+    /// Share of the eq. (5) heading correction applied per scan, 0..1. 1 is the paper:
+    /// the heading is replaced and ICP solves the translation only. Below 1 ICP solves
+    /// the full pose against the map and the sketch's line directions pull its heading by
+    /// this share of their difference per scan — a drawn wall a few degrees off then
+    /// bends the map less.
+    pub sketch_heading_gain: f64,
+    /// With a gain below 1: heading differences within this band are taken as the
+    /// drawing's own angular error and ignored, radians (a person draws a wall's direction
+    /// within a few degrees).
+    pub sketch_heading_deadband_rad: f64,
     /// Seed of every random draw of the session.
     pub seed: u64,
 }
@@ -119,6 +129,8 @@ impl Default for MapperConfig {
             mcl: MclConfig::default(),
             icp: IcpConfig::default(),
             sketch_icp_reference: IcpReference::Map,
+            sketch_heading_gain: 0.05,
+            sketch_heading_deadband_rad: 4f64.to_radians(),
             seed: 1,
         }
     }

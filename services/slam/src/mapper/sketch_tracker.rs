@@ -35,6 +35,11 @@ use super::SketchPrior;
 /// Map points farther than this from the robot are left out of the ICP reference, meters.
 const ICP_REFERENCE_RADIUS_M: f64 = 20.0;
 
+/// The ICP reference is rebuilt after this many scans...
+const REFERENCE_REFRESH_SCANS: usize = 5;
+/// ...or once the robot is this far from where it was built, meters.
+const REFERENCE_REFRESH_M: f64 = 1.0;
+
 /// Spacing of the recovery's candidate observation points, meters at the guessed scale.
 const OBSERVATION_POINT_SPACING_M: f64 = 0.5;
 
@@ -71,7 +76,15 @@ pub(super) struct SketchTracker {
     observation: LineObservationConfig,
     ransac: RansacConfig,
     icp: IcpConfig,
-    reference: IcpReference,
+    reference_kind: IcpReference,
+    /// The ICP reference and the pose it was built around.
+    reference: Option<(Icp, Pose2)>,
+    scans_since_reference: usize,
+    /// Share of eq. (5)'s heading difference applied per scan (1 = the paper's hard
+    /// correction with translation-only ICP).
+    heading_gain: f64,
+    /// Heading differences within this band are taken as drawing error, radians.
+    heading_deadband_rad: f64,
     /// The previous scan's points in the map frame.
     previous_points: Vec<Point2>,
 }
@@ -117,7 +130,11 @@ impl SketchTracker {
             observation: LineObservationConfig::default(),
             ransac: RansacConfig::default(),
             icp: config.icp.clone(),
-            reference: config.sketch_icp_reference,
+            reference_kind: config.sketch_icp_reference,
+            reference: None,
+            scans_since_reference: 0,
+            heading_gain: config.sketch_heading_gain.clamp(0.0, 1.0),
+            heading_deadband_rad: config.sketch_heading_deadband_rad.max(0.0),
             previous_points: Vec::new(),
         })
     }
@@ -183,7 +200,7 @@ impl SketchTracker {
         // 3. Heading (eq. 5): the sketch lines are brought into the robot frame with the
         // predicted map heading (the map frame's axes are the drawing's), so the correction
         // is the heading's error, not MCL's.
-        let mut heading_rad = predicted.heading_rad;
+        let mut delta_rad = None;
         if !observed.is_empty() && points.len() >= 10 {
             let scan_lines = extract_lines(points, &self.ransac, &mut self.rng);
             let lines: Vec<_> = observed.iter().map(|&i| self.sketch.lines[i]).collect();
@@ -195,26 +212,42 @@ impl SketchTracker {
             let aggregate = HeadingAggregate::InlierMean {
                 tolerance_rad: HEADING_INLIER_TOLERANCE_RAD,
             };
-            if let Some(delta) = heading_correction(&pairs, aggregate) {
-                heading_rad = predicted.heading_rad + delta;
-            }
+            delta_rad = heading_correction(&pairs, aggregate);
         }
-        let guess = Pose2::new(predicted.x, predicted.y, heading_rad);
 
-        // 4. Position (eq. 6) by point-to-line ICP with the heading held.
-        let reference = self.reference_points(grid, &guess);
-        let map_pose = if reference.len() >= 10 && points.len() >= 10 {
-            let icp = Icp::new(&reference, self.icp.clone());
-            let result = icp.align(points, guess, IcpMode::TranslationOnly);
-            if result.converged {
-                Pose2::new(result.pose.x, result.pose.y, heading_rad)
-            } else {
-                guess
-            }
+        // 4. Position (eq. 6) by point-to-line ICP. With the paper's hard correction
+        // (gain 1) the heading of eq. (5) is held and ICP solves the translation only;
+        // with a gain below 1, ICP solves the full pose against the map and the sketch's
+        // heading pulls it by that fraction of eq. (5)'s difference per scan.
+        let hard = self.heading_gain >= 1.0;
+        let guess = match delta_rad {
+            Some(d) if hard => Pose2::new(predicted.x, predicted.y, predicted.heading_rad + d),
+            _ => predicted,
+        };
+        let mode = if hard {
+            IcpMode::TranslationOnly
         } else {
-            guess
+            IcpMode::Full
+        };
+        let aligned = self.align(grid, points, guess, mode);
+        let map_pose = match delta_rad {
+            // eq. (5)'s difference measured at the prediction, re-referred to the ICP heading.
+            Some(d) if !hard => {
+                let residual = predicted.heading_rad + d - aligned.heading_rad;
+                let residual = crate::line_match::wrap_half_pi(residual);
+                // Only the part beyond the drawing's own angular error is evidence of drift.
+                let excess =
+                    residual.signum() * (residual.abs() - self.heading_deadband_rad).max(0.0);
+                Pose2::new(
+                    aligned.x,
+                    aligned.y,
+                    aligned.heading_rad + self.heading_gain * excess,
+                )
+            }
+            _ => aligned,
         };
         self.previous_points = points.iter().map(|p| map_pose.transform_point(p)).collect();
+        self.scans_since_reference += 1;
         TrackOutput {
             map_pose,
             sketch_pose,
@@ -224,18 +257,49 @@ impl SketchTracker {
         }
     }
 
-    /// The ICP reference in the map frame: the map near the robot (with the previous scan,
-    /// which the grid already holds) or the previous scan alone.
-    fn reference_points(&self, grid: &OccupancyGrid, around: &Pose2) -> Vec<Point2> {
-        match self.reference {
-            IcpReference::PreviousScan => self.previous_points.clone(),
-            IcpReference::Map => {
-                let centre = around.position();
-                grid.occupied_points()
-                    .into_iter()
-                    .filter(|p| p.distance(&centre) <= ICP_REFERENCE_RADIUS_M)
-                    .collect()
-            }
+    /// Point-to-line ICP of the scan against the reference (map frame), from `guess`;
+    /// the guess itself when there is too little to align with or ICP does not converge.
+    fn align(
+        &mut self,
+        grid: &OccupancyGrid,
+        points: &[Point2],
+        guess: Pose2,
+        mode: IcpMode,
+    ) -> Pose2 {
+        if points.len() < 10 {
+            return guess;
+        }
+        let stale = self.reference.as_ref().is_none_or(|(_, at)| {
+            self.scans_since_reference >= REFERENCE_REFRESH_SCANS
+                || at.position().distance(&guess.position()) > REFERENCE_REFRESH_M
+        });
+        if stale {
+            let centre = guess.position();
+            let points = match self.reference_kind {
+                IcpReference::PreviousScan => self.previous_points.clone(),
+                IcpReference::Map => {
+                    let mut pts =
+                        crate::icp::reference_from_grid(grid, centre, ICP_REFERENCE_RADIUS_M);
+                    // The grid holds the last scans only once their cells pass the
+                    // occupancy threshold: add the previous scan so a new area has support.
+                    pts.extend_from_slice(&self.previous_points);
+                    pts
+                }
+            };
+            self.reference = Some((Icp::new(&points, self.icp.clone()), guess));
+            self.scans_since_reference = 0;
+        }
+        let Some((icp, _)) = &self.reference else {
+            return guess;
+        };
+        if icp.len() < 10 {
+            return guess;
+        }
+        let result = icp.align(points, guess, mode);
+        if result.converged && result.pose.is_finite() {
+            result.pose
+        } else {
+            guess
         }
     }
 }

@@ -1,0 +1,273 @@
+//! One evaluation run: a scenario, a method and (for `sketch`) a drawing, mapped and scored.
+//!
+//! In-process mode drives the simulator library and the engine's `Mapper` in one process;
+//! the artifacts and scores are then computed exactly as the real-process mode does, from
+//! the `map.pgm`/`map.yaml`/`trajectory.csv` files, so both modes are comparable byte for
+//! byte.
+
+use crate::metrics::{self, StampedPose, WallGrid};
+use crate::overlay;
+use anyhow::{Context, Result};
+use serde::Serialize;
+use sketchslam_shared::{Point2, Pose2, SensorEvent};
+use sketchslam_simulator::scenario::{Scenario, SketchConfig};
+use sketchslam_simulator::simulation::Simulation;
+use sketchslam_simulator::world::World;
+use sketchslam_slam::grid_export::{parse_map_yaml, parse_pgm};
+use sketchslam_slam::mapper::{Mapper, MapperConfig, Method, SketchPrior, trajectory_csv};
+use sketchslam_slam::sketch::{Sketch, SketchPose};
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Every n-th beam of a truth scan is cast to find the wall pixels the sensor saw.
+const SEEN_WALL_BEAM_STRIDE: usize = 2;
+
+/// The scores and figures of one run; serialised as one entry of `evaluate --json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunResult {
+    /// Scenario name.
+    pub scenario: String,
+    /// Method name.
+    pub method: String,
+    /// Sketch name, for `sketch` runs.
+    pub sketch: Option<String>,
+    /// Absolute trajectory error after SE(2) alignment, meters.
+    pub ate_rmse_m: f64,
+    /// Mean distance of the aligned map's occupied cells to the true walls, meters.
+    pub map_error_m: f64,
+    /// Share of seen wall pixels mapped within 0.25 m.
+    pub completeness: f64,
+    /// Scans processed.
+    pub scans: u64,
+    /// Wall-clock seconds of the mapping.
+    pub wall_s: f64,
+    /// Scans per wall-clock second.
+    pub scans_per_s: f64,
+    /// Recoveries of MCL on the sketch.
+    pub recoveries: u32,
+    /// Where the artifacts are.
+    pub out_dir: PathBuf,
+}
+
+/// What the simulator knows about a run, to score it.
+pub struct Truth {
+    /// One pose per scan.
+    pub poses: Vec<StampedPose>,
+    /// Wall pixels hit by (every other) beam of the noise-free sensor.
+    pub seen_walls: Vec<(usize, usize)>,
+    /// The truth's walls.
+    pub walls: WallGrid,
+}
+
+/// A run's name inside its scenario's output folder: `method` or `sketch-NAME`.
+pub fn run_name(method: Method, sketch: Option<&str>) -> String {
+    match sketch {
+        Some(name) => format!("{method}-{name}"),
+        None => method.to_string(),
+    }
+}
+
+/// Loads a sketch of a scenario into a prior for the mapper.
+pub fn sketch_prior(cfg: &SketchConfig) -> Result<SketchPrior> {
+    let bytes = std::fs::read(&cfg.image)
+        .with_context(|| format!("reading sketch {}", cfg.image.display()))?;
+    let sketch = Sketch::from_image_bytes(&bytes)
+        .with_context(|| format!("processing sketch {}", cfg.image.display()))?;
+    Ok(SketchPrior {
+        sketch: Arc::new(sketch),
+        start: SketchPose {
+            u_px: cfg.start_u_px,
+            v_px: cfg.start_v_px,
+            heading_rad: cfg.start_heading_rad,
+            meters_per_pixel: cfg.meters_per_pixel,
+        },
+    })
+}
+
+/// Maps `scenario` with `method` in this process, writes the artifacts into `out_dir` and
+/// scores them. `progress(done, total)` is called as scans are processed.
+pub fn run_in_process(
+    scenario: &Scenario,
+    method: Method,
+    sketch: Option<&SketchConfig>,
+    out_dir: &Path,
+    mut progress: impl FnMut(u64, u64),
+) -> Result<RunResult> {
+    let prior = match (method, sketch) {
+        (Method::Sketch, Some(cfg)) => Some(sketch_prior(cfg)?),
+        (Method::Sketch, None) => anyhow::bail!("the sketch method needs a sketch"),
+        _ => None,
+    };
+    let config = MapperConfig {
+        seed: scenario.seed,
+        ..MapperConfig::default()
+    };
+    let mut mapper = Mapper::new(method, prior, config)?;
+    let world = World::load(&scenario.world.image, scenario.world.resolution_m)?;
+    let sim = Simulation::new(scenario)?;
+    let total = sim.scan_count();
+    let mut truth_poses = Vec::new();
+    let mut mapping_s = 0.0;
+    for step in sim {
+        if let SensorEvent::Scan(scan) = &step.event {
+            truth_poses.push(StampedPose {
+                t_s: scan.header.stamp_ns as f64 * 1e-9,
+                pose: step.truth,
+            });
+        }
+        let started = Instant::now();
+        mapper.on_event(&step.event);
+        mapping_s += started.elapsed().as_secs_f64();
+        if matches!(step.event, SensorEvent::Scan(_)) {
+            progress(truth_poses.len() as u64, total as u64);
+        }
+    }
+    let walls = WallGrid::from_image(
+        &image::open(&scenario.world.image)?.to_luma8(),
+        scenario.world.resolution_m,
+    );
+    let seen_walls = seen_wall_pixels(scenario, &world, &walls, &truth_poses);
+    std::fs::create_dir_all(out_dir)?;
+    std::fs::write(out_dir.join("map.pgm"), mapper.grid().to_pgm())?;
+    std::fs::write(out_dir.join("map.yaml"), mapper.grid().to_yaml("map.pgm"))?;
+    std::fs::write(
+        out_dir.join("trajectory.csv"),
+        trajectory_csv(mapper.trajectory()),
+    )?;
+    let truth_rows: Vec<(f64, Pose2)> = truth_poses.iter().map(|p| (p.t_s, p.pose)).collect();
+    sketchslam_simulator::truth::write_truth_csv(&out_dir.join("truth.csv"), &truth_rows)?;
+    let health = mapper.health();
+    let truth = Truth {
+        poses: truth_poses,
+        seen_walls,
+        walls,
+    };
+    let mut result = score_artifacts(out_dir, &truth)?;
+    result.scenario = scenario.name.clone();
+    result.method = method.to_string();
+    result.sketch = sketch.map(|s| s.name.clone());
+    result.scans = health.scans_processed;
+    result.wall_s = mapping_s;
+    result.scans_per_s = health.scans_processed as f64 / mapping_s.max(1e-9);
+    result.recoveries = health.recoveries;
+    Ok(result)
+}
+
+/// Wall pixels the noise-free sensor saw from the true poses.
+pub fn seen_wall_pixels(
+    scenario: &Scenario,
+    world: &World,
+    walls: &WallGrid,
+    truth: &[StampedPose],
+) -> Vec<(usize, usize)> {
+    let lidar = &scenario.lidar;
+    let step_rad = lidar.fov_rad / (lidar.beams.max(2) - 1) as f64;
+    let mut seen = HashSet::new();
+    for t in truth {
+        for i in (0..lidar.beams).step_by(SEEN_WALL_BEAM_STRIDE) {
+            let angle = t.pose.heading_rad - 0.5 * lidar.fov_rad + i as f64 * step_rad;
+            if let Some(r) = world.cast(t.pose.position(), angle, lidar.max_range_m) {
+                // Half a pixel past the boundary lands inside the wall pixel hit.
+                let d = r + 0.5 * walls.resolution_m;
+                let p = Point2::new(t.pose.x + d * angle.cos(), t.pose.y + d * angle.sin());
+                if let Some(px) = walls.pixel_of(p).filter(|(c, r)| walls.is_wall(*c, *r)) {
+                    seen.insert(px);
+                }
+            }
+        }
+    }
+    let mut seen: Vec<_> = seen.into_iter().collect();
+    seen.sort_unstable();
+    seen
+}
+
+/// Reads a run's `map.pgm`, `map.yaml` and `trajectory.csv`, scores them against the
+/// truth and draws `overlay.png`. Scenario/method fields of the result are left empty.
+pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
+    let yaml = parse_map_yaml(&std::fs::read_to_string(out_dir.join("map.yaml"))?)?;
+    let (width, height, pixels) = parse_pgm(&std::fs::read(out_dir.join("map.pgm"))?)?;
+    let occupied = occupied_points(width, height, &pixels, yaml.resolution_m, &yaml.origin);
+    let estimate = read_trajectory_csv(&out_dir.join("trajectory.csv"))?;
+    let traj = metrics::score_trajectory(&estimate, &truth.poses)
+        .context("the trajectory does not overlap the truth")?;
+    let map = metrics::score_map(&occupied, &traj.alignment, &truth.walls, &truth.seen_walls);
+    overlay::draw(
+        &truth.walls,
+        &occupied,
+        &estimate,
+        &truth.poses,
+        &traj.alignment,
+    )
+    .save(out_dir.join("overlay.png"))?;
+    Ok(RunResult {
+        scenario: String::new(),
+        method: String::new(),
+        sketch: None,
+        ate_rmse_m: traj.ate_rmse_m,
+        map_error_m: map.map_error_m,
+        completeness: map.completeness,
+        scans: 0,
+        wall_s: 0.0,
+        scans_per_s: 0.0,
+        recoveries: 0,
+        out_dir: out_dir.to_path_buf(),
+    })
+}
+
+/// Map-frame centres of the occupied pixels (value 0) of a map_server PGM, whose first row
+/// is the top of the map and whose bottom-left corner is at `origin`.
+pub fn occupied_points(
+    width: usize,
+    height: usize,
+    pixels: &[u8],
+    resolution_m: f64,
+    origin: &Pose2,
+) -> Vec<Point2> {
+    let mut out = Vec::new();
+    for row in 0..height {
+        for col in 0..width {
+            if pixels[row * width + col] == 0 {
+                let local = Point2::new(
+                    (col as f64 + 0.5) * resolution_m,
+                    ((height - 1 - row) as f64 + 0.5) * resolution_m,
+                );
+                out.push(origin.transform_point(&local));
+            }
+        }
+    }
+    out
+}
+
+/// Reads a `t,x,y,theta` CSV (trajectory or truth).
+pub fn read_trajectory_csv(path: &Path) -> Result<Vec<StampedPose>> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    parse_trajectory_csv(&text).with_context(|| format!("parsing {}", path.display()))
+}
+
+/// Parses `t,x,y,theta` CSV text.
+pub fn parse_trajectory_csv(text: &str) -> Result<Vec<StampedPose>> {
+    let mut lines = text.lines();
+    anyhow::ensure!(
+        lines.next().map(str::trim) == Some("t,x,y,theta"),
+        "header is not t,x,y,theta"
+    );
+    lines
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(i, l)| {
+            let f: Vec<f64> = l
+                .split(',')
+                .map(|v| v.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .with_context(|| format!("line {}", i + 2))?;
+            anyhow::ensure!(f.len() == 4, "line {}: expected 4 fields", i + 2);
+            Ok(StampedPose {
+                t_s: f[0],
+                pose: Pose2::new(f[1], f[2], f[3]),
+            })
+        })
+        .collect()
+}
