@@ -138,6 +138,11 @@ impl std::fmt::Debug for OccupancyGrid {
     }
 }
 
+/// `p → l = ln(p / (1 − p))`.
+pub fn logit(p: f64) -> f64 {
+    (p / (1.0 - p)).ln()
+}
+
 /// `l → p = 1 − 1/(1 + eˡ)`.
 pub fn log_odds_to_probability(l: f64) -> f64 {
     1.0 - 1.0 / (1.0 + l.exp())
@@ -207,14 +212,16 @@ impl OccupancyGrid {
         log_odds_to_probability(self.log_odds(col, row) as f64)
     }
 
-    /// True when the cell's probability exceeds [`OCCUPIED_THRESHOLD`] (0.65).
+    /// True when the cell's probability exceeds [`OCCUPIED_THRESHOLD`] (0.65), tested on
+    /// the log odds (`l > ln(0.65 / 0.35)`, no `exp`).
     pub fn is_occupied(&self, col: usize, row: usize) -> bool {
-        self.probability(col, row) > OCCUPIED_THRESHOLD
+        self.log_odds(col, row) as f64 > logit(OCCUPIED_THRESHOLD)
     }
 
-    /// True when the cell's probability is below [`FREE_THRESHOLD`] (0.196).
+    /// True when the cell's probability is below [`FREE_THRESHOLD`] (0.196), tested on the
+    /// log odds.
     pub fn is_free(&self, col: usize, row: usize) -> bool {
-        self.probability(col, row) < FREE_THRESHOLD
+        (self.log_odds(col, row) as f64) < logit(FREE_THRESHOLD)
     }
 
     /// True when the cell was never updated (or its evidence cancelled out: log odds 0).
@@ -233,10 +240,35 @@ impl OccupancyGrid {
     /// Centres of the occupied cells in the map frame, bottom row first, left to right.
     /// O(cells).
     pub fn occupied_points(&self) -> Vec<Point2> {
+        self.occupied_in_cells(0, 0, self.width, self.height)
+    }
+
+    /// Centres of the occupied cells whose centre lies in the box `[min, max]` (map frame),
+    /// same order as [`OccupancyGrid::occupied_points`]. O(cells of the box).
+    pub fn occupied_points_in_box(&self, min: Point2, max: Point2) -> Vec<Point2> {
+        if [min.x, min.y, max.x, max.y].iter().any(|v| v.is_nan()) {
+            return Vec::new();
+        }
+        let r = self.config.resolution_m;
+        let o = self.origin();
+        let lo = |v: f64, o: f64| ((v - o) / r - 0.5).ceil().max(0.0);
+        let hi = |v: f64, o: f64, n: usize| ((v - o) / r - 0.5).floor().min(n as f64 - 1.0) + 1.0;
+        let (c0, r0) = (lo(min.x, o.x), lo(min.y, o.y));
+        let (c1, r1) = (hi(max.x, o.x, self.width), hi(max.y, o.y, self.height));
+        if !(c1 > c0 && r1 > r0) {
+            return Vec::new();
+        }
+        self.occupied_in_cells(c0 as usize, r0 as usize, c1 as usize, r1 as usize)
+    }
+
+    /// Occupied cell centres of columns `c0..c1`, rows `r0..r1`.
+    fn occupied_in_cells(&self, c0: usize, r0: usize, c1: usize, r1: usize) -> Vec<Point2> {
+        let thr = logit(OCCUPIED_THRESHOLD);
         let mut out = Vec::new();
-        for row in 0..self.height {
-            for col in 0..self.width {
-                if self.is_occupied(col, row) {
+        for row in r0..r1.min(self.height) {
+            let line = &self.cells[row * self.width..(row + 1) * self.width];
+            for (col, &l) in line.iter().enumerate().take(c1.min(self.width)).skip(c0) {
+                if l as f64 > thr {
                     out.push(self.cell_center(col, row));
                 }
             }

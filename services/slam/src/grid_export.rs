@@ -80,10 +80,9 @@ impl OccupancyGrid {
 
     /// PGM value of a cell: 0 occupied, 254 free, 205 unknown (map_saver's trinary mode).
     fn pgm_value(&self, col: usize, row: usize) -> u8 {
-        let p = self.probability(col, row);
-        if p > OCCUPIED_THRESHOLD {
+        if self.is_occupied(col, row) {
             PGM_OCCUPIED
-        } else if p < FREE_THRESHOLD {
+        } else if self.is_free(col, row) {
             PGM_FREE
         } else {
             PGM_UNKNOWN

@@ -131,7 +131,7 @@ fn pca_normal(nb: &[Point2]) -> Option<(Point2, f64)> {
     let half_tr = 0.5 * (sxx + syy);
     let disc = (0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy).sqrt();
     let (l_max, l_min) = (half_tr + disc, half_tr - disc);
-    if !(l_max > 1e-18) {
+    if l_max.is_nan() || l_max <= 1e-18 {
         return None;
     }
     let phi = 0.5 * (2.0 * sxy).atan2(sxx - syy);
@@ -139,15 +139,21 @@ fn pca_normal(nb: &[Point2]) -> Option<(Point2, f64)> {
 }
 
 /// The occupied cells of `grid` within `radius_m` of `center` (all of them for an infinite
-/// radius): a scan-to-map ICP reference. O(cells).
+/// radius): a scan-to-map ICP reference. O(cells of the bounding box).
 pub fn reference_from_grid(grid: &OccupancyGrid, center: Point2, radius_m: f64) -> Vec<Point2> {
-    let pts = grid.occupied_points();
-    if !radius_m.is_finite() {
-        return pts;
+    if radius_m.is_infinite() && radius_m > 0.0 {
+        return grid.occupied_points();
     }
-    pts.into_iter()
-        .filter(|p| p.distance(&center) <= radius_m)
-        .collect()
+    if !(radius_m >= 0.0 && center.x.is_finite() && center.y.is_finite()) {
+        return Vec::new();
+    }
+    let (min, max) = (
+        Point2::new(center.x - radius_m, center.y - radius_m),
+        Point2::new(center.x + radius_m, center.y + radius_m),
+    );
+    let mut pts = grid.occupied_points_in_box(min, max);
+    pts.retain(|p| p.distance(&center) <= radius_m);
+    pts
 }
 
 impl Icp {

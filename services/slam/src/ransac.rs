@@ -132,7 +132,7 @@ impl Model {
     fn through(p: &Point2, q: &Point2) -> Option<Model> {
         let (dx, dy) = (q.x - p.x, q.y - p.y);
         let len = dx.hypot(dy);
-        if !(len > 1e-9) {
+        if len.is_nan() || len <= 1e-9 {
             return None;
         }
         let n = Point2::new(-dy / len, dx / len);
@@ -165,7 +165,7 @@ fn fit_tls(pts: &[Point2]) -> Option<Model> {
         syy += dy * dy;
         sxy += dx * dy;
     }
-    if !(sxx + syy > 1e-18) {
+    if (sxx + syy).is_nan() || sxx + syy <= 1e-18 {
         return None;
     }
     // Principal direction of the 2×2 covariance: φ = ½·atan2(2 sxy, sxx − syy).
@@ -200,7 +200,7 @@ fn scan_line(model: &Model, pts: &[Point2]) -> Option<ScanLine> {
         tmin = tmin.min(t);
         tmax = tmax.max(t);
     }
-    if !(tmax >= tmin) {
+    if tmax.is_nan() || tmin.is_nan() || tmax < tmin {
         return None;
     }
     let on = |t: f64| Point2::new(normal.x * offset + d.x * t, normal.y * offset + d.y * t);

@@ -275,3 +275,22 @@ fn bad_config_falls_back_to_defaults() {
         GridConfig::default().log_odds_occupied
     );
 }
+
+#[test]
+fn occupied_points_in_box_is_a_filter_of_all() {
+    let g = room_grid();
+    let all = g.occupied_points();
+    let (min, max) = (Point2::new(-4.02, -1.0), Point2::new(0.5, 4.5));
+    let want: Vec<Point2> = all
+        .iter()
+        .copied()
+        .filter(|p| p.x >= min.x && p.x <= max.x && p.y >= min.y && p.y <= max.y)
+        .collect();
+    assert!(!want.is_empty());
+    assert_eq!(g.occupied_points_in_box(min, max), want);
+    let everything = g.occupied_points_in_box(Point2::new(-1e6, -1e6), Point2::new(1e6, 1e6));
+    assert_eq!(everything, all);
+    assert!(g.occupied_points_in_box(max, min).is_empty());
+    let nan = Point2::new(f64::NAN, 0.0);
+    assert!(g.occupied_points_in_box(nan, max).is_empty());
+}
