@@ -1,8 +1,8 @@
 //! Line extraction from the stroke mask: the progressive probabilistic Hough transform.
 //!
 //! Third stage of sketch ingestion: stroke mask → skeleton ([`super::thinning`]) → segments
-//! (this module) → merged walls ([`super::merge`]) → [`SketchLine`]s numbered from 0,
-//! longest first.
+//! (this module) → merged walls, corners closed ([`super::merge`]) → [`SketchLine`]s
+//! numbered from 0, longest first.
 //!
 //! # Algorithm
 //! J. Matas, C. Galambos and J. Kittler, "Robust detection of lines using the progressive
@@ -31,7 +31,7 @@ use rand_chacha::ChaCha8Rng;
 use sketchslam_shared::Point2;
 
 use super::SketchLine;
-use super::merge::{MergeTolerances, Segment, merge_chains, merge_collinear};
+use super::merge::{MergeTolerances, Segment, merge_chains, merge_collinear, snap_corners};
 use super::thinning::zhang_suen;
 
 /// Parameters of line extraction. Lengths are relative (to the image diagonal `D` and the
@@ -164,7 +164,12 @@ pub fn extract_lines(
     let drawn =
         |p: Point2, q: Point2| skeleton_connects(&skeleton, w, h, p, q, params.stroke_width_px);
     let chains = merge_chains(segments, &params.merge, &drawn);
-    let merged = merge_collinear(chains, &params.merge);
+    let mut merged = merge_collinear(chains, &params.merge);
+    merged.retain(|s| s.length_px() >= params.min_length_px);
+    snap_corners(
+        &mut merged,
+        params.corridor_px + params.stroke_width_px + 1.0,
+    );
     let mut lines: Vec<SketchLine> = merged
         .into_iter()
         .filter(|s| s.length_px() >= params.min_length_px)

@@ -158,7 +158,7 @@ pub fn merge_chains(
     let n = segments.len();
     // Endpoint e of segment i is 2i + e (e = 0 for `a`, 1 for `b`).
     let point = |k: usize| {
-        if k % 2 == 0 {
+        if k.is_multiple_of(2) {
             segments[k / 2].a
         } else {
             segments[k / 2].b
@@ -167,7 +167,11 @@ pub fn merge_chains(
     // Unit direction pointing out of the segment through endpoint k.
     let outward = |k: usize| {
         let (dx, dy) = segments[k / 2].direction();
-        if k % 2 == 0 { (-dx, -dy) } else { (dx, dy) }
+        if k.is_multiple_of(2) {
+            (-dx, -dy)
+        } else {
+            (dx, dy)
+        }
     };
     let cos_max = (tol.angle_tol_rad * CHAIN_ANGLE_FACTOR)
         .min(std::f64::consts::FRAC_PI_2)
@@ -256,7 +260,7 @@ fn split_chain(
     out: &mut Vec<Segment>,
 ) {
     let entry = |k: usize| {
-        if k % 2 == 0 {
+        if k.is_multiple_of(2) {
             segments[k / 2].a
         } else {
             segments[k / 2].b
@@ -330,6 +334,58 @@ pub fn merge_collinear(mut segments: Vec<Segment>, tol: &MergeTolerances) -> Vec
     }
 }
 
+/// Extends or trims line ends onto the lines they meet at a corner.
+///
+/// The Hough transform removes the pixels of a line's corridor when it finds the line, so
+/// a wall found later stops a corridor's width short of the corner it shares with an
+/// earlier one (and thinning shortens free ends by half a stroke). For each end `E` of a
+/// segment and each other segment at more than 30° to it, the intersection `X` of the two
+/// supporting lines replaces `E` when `|EX| ≤ snap_px` and `X` lies within `snap_px` of the
+/// other segment. `O(n²)` for `n` segments.
+pub fn snap_corners(segments: &mut [Segment], snap_px: f64) {
+    let min_sin = 30f64.to_radians().sin();
+    for i in 0..segments.len() {
+        for end in 0..2 {
+            let mut best: Option<(f64, Point2)> = None;
+            for j in 0..segments.len() {
+                if i == j {
+                    continue;
+                }
+                let (si, sj) = (segments[i], segments[j]);
+                let ((ux, uy), (vx, vy)) = (si.direction(), sj.direction());
+                let cross = ux * vy - uy * vx;
+                if cross.abs() < min_sin {
+                    continue;
+                }
+                // si.a + t u = sj.a + r v.
+                let (wx, wy) = (sj.a.x - si.a.x, sj.a.y - si.a.y);
+                let t = (wx * vy - wy * vx) / cross;
+                let x = Point2::new(si.a.x + t * ux, si.a.y + t * uy);
+                let e = if end == 0 { si.a } else { si.b };
+                let d = e.distance(&x);
+                let r = (x.x - sj.a.x) * vx + (x.y - sj.a.y) * vy;
+                let outside = (-r).max(r - sj.length_px()).max(0.0);
+                // Snapping must not flip or collapse the segment.
+                let other = if end == 0 { si.b } else { si.a };
+                if d <= snap_px
+                    && outside <= snap_px
+                    && other.distance(&x) > 0.5 * si.length_px()
+                    && best.is_none_or(|(bd, _)| d < bd)
+                {
+                    best = Some((d, x));
+                }
+            }
+            if let Some((_, x)) = best {
+                if end == 0 {
+                    segments[i].a = x;
+                } else {
+                    segments[i].b = x;
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -381,6 +437,14 @@ mod tests {
             &|_, _| true,
         );
         assert_eq!(out.len(), 6);
+    }
+
+    #[test]
+    fn corners_are_closed() {
+        let mut s = vec![seg(0.0, 0.0, 100.0, 0.0), seg(103.0, 4.0, 103.0, 80.0)];
+        snap_corners(&mut s, 6.0);
+        assert!(s[0].b.distance(&Point2::new(103.0, 0.0)) < 1e-9);
+        assert!(s[1].a.distance(&Point2::new(103.0, 0.0)) < 1e-9);
     }
 
     #[test]

@@ -74,9 +74,11 @@ fn deletable(mask: &[bool], w: usize, h: usize, i: usize, first: bool) -> bool {
     }
     let (p2, p4, p6, p8) = (p[0], p[2], p[4], p[6]);
     if first {
-        !(p2 && p4 && p6) && !(p4 && p6 && p8)
+        // P2·P4·P6 = 0 and P4·P6·P8 = 0.
+        !(p4 && p6 && (p2 || p8))
     } else {
-        !(p2 && p4 && p8) && !(p2 && p6 && p8)
+        // P2·P4·P8 = 0 and P2·P6·P8 = 0.
+        !(p2 && p8 && (p4 || p6))
     }
 }
 
