@@ -20,8 +20,9 @@ use sketchslam_shared::ipc::{IpcConfig, RobotSubscriber, SubscriberStats};
 
 /// How long one wait for data lasts before the stop flag is checked again.
 const POLL: Duration = Duration::from_millis(50);
-/// The longest the intake keeps draining after a stop was asked for.
-const FINAL_DRAIN: Duration = Duration::from_secs(2);
+/// The longest the intake keeps draining after a stop was asked for (bounded for a
+/// publisher that outpaces the mapper and would otherwise keep the drain going forever).
+const FINAL_DRAIN: Duration = Duration::from_secs(10);
 /// Capacity of the intake → mapper channel, messages.
 pub const CHANNEL_CAPACITY: usize = 64;
 

@@ -1,0 +1,257 @@
+//! The real `slam-service` and `simulator` processes: sketch A of `paper-env1` uploaded over
+//! HTTP, a session started on it, the simulator publishing lock-step over iceoryx2, the pose
+//! and the map fetched back over HTTP, the map scored against the truth (within 0.3 m), and
+//! the service stopped with SIGTERM — after which a new service on the same data dir still
+//! lists the sketch and serves the stopped session.
+//!
+//! Each run has its own iceoryx2 prefix, data dir and port; children are killed on drop.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail, ensure};
+use sketchslam_api::{
+    CreateSessionRequest, MappingMethod, SessionState, SketchStart, SketchslamClient,
+};
+use sketchslam_simulator::scenario::Scenario;
+use sketchslam_simulator::world::World;
+use sketchslam_tests::metrics::WallGrid;
+use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario, free_port, unique_prefix};
+use sketchslam_tests::run::{Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
+
+/// Scans the simulator publishes: about 30 s of driving, the first corridor and a turn.
+const SCANS: u64 = 600;
+
+/// A folder removed on drop.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(tag: &str) -> Result<Self> {
+        let p = std::env::temp_dir().join(format!("{}-{tag}", unique_prefix("e2e")));
+        std::fs::create_dir_all(&p)?;
+        Ok(TempDir(p))
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+struct Service {
+    guard: ChildGuard,
+    client: SketchslamClient,
+}
+
+async fn start_service(data_dir: &Path, prefix: &str) -> Result<Service> {
+    let exe = binary("sketchslam-slam", "slam-service")?;
+    let port = free_port()?;
+    let guard = ChildGuard::spawn(
+        "slam-service",
+        Command::new(exe)
+            .args(["--listen", &format!("127.0.0.1:{port}")])
+            .arg("--data-dir")
+            .arg(data_dir)
+            .args(["--ipc-prefix", prefix])
+            .env_remove("SKETCHSLAM_TOKEN")
+            .stdout(Stdio::null())
+            .stderr(
+                std::fs::File::options()
+                    .create(true)
+                    .append(true)
+                    .open(data_dir.with_extension("log"))?,
+            ),
+    )?;
+    let client = SketchslamClient::new(format!("http://127.0.0.1:{port}"));
+    let deadline = Instant::now() + Duration::from_secs(60);
+    loop {
+        if client.health().await.is_ok() {
+            break;
+        }
+        if Instant::now() > deadline {
+            bail!("slam-service did not answer /healthz within 60 s");
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    Ok(Service { guard, client })
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn service_maps_paper_env1_with_sketch_a_over_http() -> Result<()> {
+    let dir = TempDir::new("service")?;
+    let result = map_paper_env1(&dir).await;
+    if result.is_err() {
+        // The service's log, to see why (it is removed with the folder).
+        let log = std::fs::read_to_string(dir.0.join("data.log")).unwrap_or_default();
+        let tail: Vec<&str> = log.lines().rev().take(60).collect();
+        for line in tail.iter().rev() {
+            eprintln!("slam-service| {line}");
+        }
+    }
+    result
+}
+
+async fn map_paper_env1(dir: &TempDir) -> Result<()> {
+    let scenario_dir = bundled_scenario("paper-env1");
+    let scenario = Scenario::load(&scenario_dir)?;
+    let sketch_cfg = scenario
+        .sketches
+        .iter()
+        .find(|s| s.name == "A")
+        .context("sketch A")?
+        .clone();
+    let simulator = binary("sketchslam-simulator", "simulator")?;
+    let data_dir = dir.0.join("data");
+    let prefix = unique_prefix("e2e");
+    let mut service = start_service(&data_dir, &prefix).await?;
+    let client = service.client.clone();
+
+    let sketch = client
+        .upload_sketch(std::fs::read(&sketch_cfg.image)?, Some("A"))
+        .await?;
+    ensure!(
+        sketch.lines.len() >= 4,
+        "sketch A has {} lines",
+        sketch.lines.len()
+    );
+    let session = client
+        .create_session(&CreateSessionRequest {
+            robot_id: "r1".into(),
+            method: MappingMethod::Sketch,
+            sketch_id: Some(sketch.id.clone()),
+            start: Some(SketchStart {
+                u: sketch_cfg.start_u_px,
+                v: sketch_cfg.start_v_px,
+                heading_deg: sketch_cfg.start_heading_rad.to_degrees(),
+            }),
+            meters_per_pixel: Some(sketch_cfg.meters_per_pixel),
+        })
+        .await?;
+    ensure!(session.state == SessionState::WaitingForData);
+    let mut events = client.events(&session.id).await?;
+
+    // The simulator starts after the session and sends lock-step: nothing is lost.
+    let truth_csv = dir.0.join("truth.csv");
+    let mut sim = ChildGuard::spawn(
+        "simulator",
+        Command::new(simulator)
+            .arg("run")
+            .arg(&scenario_dir)
+            .args(["--robot", "r1", "--lockstep", "--quiet"])
+            .args(["--ipc-prefix", &prefix])
+            .args(["--max-scans", &SCANS.to_string()])
+            .arg("--truth-out")
+            .arg(&truth_csv)
+            .stdout(Stdio::null()),
+    )?;
+    let status = tokio::task::spawn_blocking(move || {
+        let status = sim.wait_timeout(Duration::from_secs(600));
+        (sim, status)
+    })
+    .await?
+    .1?;
+    ensure!(status.success(), "simulator failed: {status}");
+
+    // The live feed carried the first status and poses.
+    let first = tokio::time::timeout(Duration::from_secs(10), events.next_event()).await??;
+    ensure!(matches!(
+        first,
+        Some(sketchslam_api::SessionEvent::Status(_))
+    ));
+    let next = tokio::time::timeout(Duration::from_secs(10), events.next_event()).await??;
+    ensure!(next.is_some(), "the event stream ended early");
+
+    let deadline = Instant::now() + Duration::from_secs(300);
+    loop {
+        let info = client.get_session(&session.id).await?;
+        ensure!(
+            info.state != SessionState::Failed,
+            "session failed: {:?}",
+            info.last_error
+        );
+        if info.scans_processed >= SCANS {
+            ensure!(
+                info.scans_lost == 0,
+                "lost {} scans in lock-step",
+                info.scans_lost
+            );
+            break;
+        }
+        ensure!(
+            Instant::now() < deadline,
+            "only {} scans processed",
+            info.scans_processed
+        );
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+    let pose = client.pose(&session.id).await?;
+    ensure!(
+        pose.position_initialized && pose.localization_score > 0.0,
+        "{pose:?}"
+    );
+    let on_sketch = pose
+        .sketch
+        .context("a sketch session has a pose on the sketch")?;
+    ensure!(on_sketch.meters_per_pixel > 0.0);
+
+    let stopped = client.stop_session(&session.id).await?;
+    ensure!(stopped.state == SessionState::Stopped);
+    // The map and trajectory come back over HTTP; score them against the truth.
+    let out = dir.0.join("run");
+    std::fs::create_dir_all(&out)?;
+    std::fs::write(out.join("map.pgm"), client.map_pgm(&session.id).await?)?;
+    std::fs::write(out.join("map.yaml"), client.map_yaml(&session.id).await?)?;
+    std::fs::write(
+        out.join("trajectory.csv"),
+        client.trajectory_csv(&session.id).await?,
+    )?;
+    let truth_poses = read_trajectory_csv(&truth_csv)?;
+    let walls = WallGrid::from_image(
+        &image::open(&scenario.world.image)?.to_luma8(),
+        scenario.world.resolution_m,
+    );
+    let world = World::load(&scenario.world.image, scenario.world.resolution_m)?;
+    let seen_walls = seen_wall_pixels(&scenario, &world, &walls, &truth_poses);
+    let truth = Truth {
+        poses: truth_poses,
+        seen_walls,
+        walls,
+    };
+    let score = score_artifacts(&out, &truth)?;
+    eprintln!(
+        "service e2e: map error {:.3} m, ATE {:.3} m, completeness {:.2}",
+        score.map_error_m, score.ate_rmse_m, score.completeness
+    );
+    ensure!(
+        score.map_error_m < 0.3,
+        "map error {:.3} m",
+        score.map_error_m
+    );
+    ensure!(
+        score.completeness > 0.5,
+        "completeness {:.2}",
+        score.completeness
+    );
+
+    // SIGTERM: a clean exit; a new service on the same data dir serves the same things.
+    let exit = service
+        .guard
+        .terminate(Duration::from_secs(30))
+        .context("slam-service already gone")?;
+    ensure!(exit.success(), "slam-service exited with {exit}");
+    let again = start_service(&data_dir, &prefix).await?;
+    let listed = again.client.list_sketches().await?;
+    ensure!(listed.sketches.iter().any(|s| s.id == sketch.id));
+    let info = again.client.get_session(&session.id).await?;
+    ensure!(info.state == SessionState::Stopped && info.scans_processed >= SCANS);
+    ensure!(
+        again
+            .client
+            .map_png(&session.id)
+            .await?
+            .starts_with(b"\x89PNG")
+    );
+    Ok(())
+}
