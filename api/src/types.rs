@@ -148,6 +148,10 @@ pub struct CreateSessionRequest {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schema(example = 0.1)]
     pub meters_per_pixel: Option<f64>,
+    /// Seed of the session's random draws (MCL, RANSAC); the same seed and the same
+    /// lock-step input reproduce a run exactly. Default: the service's seed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
 }
 
 fn check_finite(field: &str, value: f64) -> Result<(), ApiError> {

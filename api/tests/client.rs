@@ -54,6 +54,7 @@ async fn client_covers_every_endpoint() {
             heading_deg: 1.1,
         }),
         meters_per_pixel: Some(0.1),
+        seed: None,
     };
     let session = c.create_session(&request).await.unwrap();
     assert_eq!(session.state, SessionState::WaitingForData);

@@ -11,6 +11,7 @@
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use sketchslam_shared::Pose2;
+use sketchslam_shared::SensorEvent;
 use sketchslam_shared::ipc::{DEFAULT_BACKPRESSURE_TIMEOUT, IpcConfig, RobotPublisher};
 use sketchslam_simulator::publish::{Pace, PublishOptions, publish_events};
 use sketchslam_simulator::{Scenario, Simulation};
@@ -141,7 +142,8 @@ fn run(args: RunArgs) -> Result<()> {
     let keep_truth = args.truth_out.is_some();
     let events = simulation
         .inspect(|step| {
-            if keep_truth {
+            // truth.csv holds one row per scan (DESIGN.md).
+            if keep_truth && matches!(step.event, SensorEvent::Scan(_)) {
                 truth.push((step.t_s(), step.truth));
             }
         })

@@ -4,4 +4,5 @@
 pub mod metrics;
 pub mod overlay;
 pub mod processes;
+pub mod real_process;
 pub mod run;

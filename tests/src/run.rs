@@ -87,12 +87,15 @@ pub fn sketch_prior(cfg: &SketchConfig) -> Result<SketchPrior> {
 }
 
 /// Maps `scenario` with `method` in this process, writes the artifacts into `out_dir` and
-/// scores them. `progress(done, total)` is called as scans are processed.
+/// scores them; with `max_scans`, only the run's first scans (and the odometry before
+/// them), as `simulator run --max-scans`. `progress(done, total)` is called as scans are
+/// processed.
 pub fn run_in_process(
     scenario: &Scenario,
     method: Method,
     sketch: Option<&SketchConfig>,
     out_dir: &Path,
+    max_scans: Option<u64>,
     mut progress: impl FnMut(u64, u64),
 ) -> Result<RunResult> {
     let prior = match (method, sketch) {
@@ -107,7 +110,7 @@ pub fn run_in_process(
     let mut mapper = Mapper::new(method, prior, config)?;
     let world = World::load(&scenario.world.image, scenario.world.resolution_m)?;
     let sim = Simulation::new(scenario)?;
-    let total = sim.scan_count();
+    let total = max_scans.map_or(sim.scan_count(), |m| m.min(sim.scan_count()));
     let mut truth_poses = Vec::new();
     let mut mapping_s = 0.0;
     for step in sim {
@@ -121,7 +124,11 @@ pub fn run_in_process(
         mapper.on_event(&step.event);
         mapping_s += started.elapsed().as_secs_f64();
         if matches!(step.event, SensorEvent::Scan(_)) {
-            progress(truth_poses.len() as u64, total as u64);
+            progress(truth_poses.len() as u64, total);
+            // Stop right after the last scan, as the simulator's --max-scans does.
+            if truth_poses.len() as u64 >= total {
+                break;
+            }
         }
     }
     let walls = WallGrid::from_image(

@@ -127,6 +127,7 @@ async fn map_paper_env1(dir: &TempDir) -> Result<()> {
                 heading_deg: sketch_cfg.start_heading_rad.to_degrees(),
             }),
             meters_per_pixel: Some(sketch_cfg.meters_per_pixel),
+            seed: None,
         })
         .await?;
     ensure!(session.state == SessionState::WaitingForData);

@@ -186,6 +186,7 @@ fn sketches_are_ingested_and_starts_validated() {
             heading_deg: 1.1,
         }),
         meters_per_pixel: Some(0.1),
+        seed: None,
     };
     let outside = reg
         .create_session(request(info.width_px as f64 + 3.0, 10.0))
@@ -242,6 +243,7 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
             sketch_id: None,
             start: None,
             meters_per_pixel: None,
+            seed: None,
         })
         .unwrap();
     let id = session.id.clone();
@@ -363,6 +365,7 @@ fn fleets_run_side_by_side_within_the_limit() {
         sketch_id: None,
         start: None,
         meters_per_pixel: None,
+        seed: None,
     };
     let ids: Vec<String> = (0..4)
         .map(|i| reg.create_session(req(&format!("r{i}"))).unwrap().id)

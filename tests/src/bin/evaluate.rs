@@ -1,5 +1,8 @@
 //! `evaluate`: maps scenarios with every method and drawing, and scores the results.
 //!
+//! By default every run launches the real `slam-service` and `simulator` processes;
+//! `--in-process` runs both inside this one.
+//!
 //! `evaluate SCENARIO_DIR... [--method odometry,icp,sketch] [--sketch NAME] [--out DIR]
 //! [--json FILE] [--in-process]`: every scenario × method × sketch is one run whose
 //! artifacts go to `OUT/SCENARIO/RUN/`; the metrics are printed as a table and written as
@@ -10,6 +13,7 @@ use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use sketchslam_simulator::scenario::Scenario;
 use sketchslam_slam::mapper::Method;
+use sketchslam_tests::real_process::run_real_process;
 use sketchslam_tests::run::{RunResult, run_in_process, run_name};
 use std::path::PathBuf;
 
@@ -31,7 +35,11 @@ struct Args {
     /// Also write the results as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
-    /// Run the simulator and the engine inside this process.
+    /// Map only the first N scans of each scenario (a quick look).
+    #[arg(long)]
+    max_scans: Option<u64>,
+    /// Run the simulator and the engine inside this process instead of launching
+    /// `slam-service` and `simulator` and going through iceoryx2 and HTTP.
     #[arg(long)]
     in_process: bool,
 }
@@ -43,9 +51,6 @@ fn main() -> Result<()> {
         .iter()
         .map(|m| m.parse())
         .collect::<Result<_, _>>()?;
-    if !args.in_process {
-        bail!("the real-process mode is not available in this build yet; pass --in-process");
-    }
     let mut plan = Vec::new();
     for dir in &args.scenarios {
         let scenario = Scenario::load(dir).with_context(|| format!("loading {}", dir.display()))?;
@@ -84,10 +89,29 @@ fn main() -> Result<()> {
         ));
         let out_dir = args.out.join(&scenario.name).join(&name);
         let sketch_cfg = sketch.as_deref().and_then(|n| scenario.sketch(n));
-        let result = run_in_process(scenario, *method, sketch_cfg, &out_dir, |done, total| {
+        let progress = |done, total| {
             bar.set_length(total);
             bar.set_position(done);
-        });
+        };
+        let result = if args.in_process {
+            run_in_process(
+                scenario,
+                *method,
+                sketch_cfg,
+                &out_dir,
+                args.max_scans,
+                progress,
+            )
+        } else {
+            run_real_process(
+                scenario,
+                *method,
+                sketch_cfg,
+                &out_dir,
+                args.max_scans,
+                progress,
+            )
+        };
         bar.finish_and_clear();
         match result {
             Ok(r) => results.push(r),

@@ -276,8 +276,11 @@ impl Registry {
             }
             MappingMethod::Icp | MappingMethod::Odometry => None,
         };
-        let mapper =
-            Mapper::new(method, prior, self.config.mapper.clone()).map_err(|e| match e {
+        let mut mapper_config = self.config.mapper.clone();
+        if let Some(seed) = request.seed {
+            mapper_config.seed = seed;
+        }
+        let mapper = Mapper::new(method, prior, mapper_config).map_err(|e| match e {
                 EngineError::InvalidParameter { name, reason } => {
                     ApiError::invalid("invalid_parameter", format!("{name}: {reason}"))
                 }

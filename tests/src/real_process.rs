@@ -1,0 +1,212 @@
+//! One evaluation run through the real processes: `slam-service` and `simulator`.
+//!
+//! The run starts the service on a free loopback port with a fresh data dir and iceoryx2
+//! prefix, uploads the sketch and starts the session through the typed API client, runs
+//! the simulator in lock-step (nothing lost, deterministic), waits until every published
+//! scan is processed, stops the session, fetches `map.pgm`, `map.yaml` and
+//! `trajectory.csv` over HTTP and scores them against the simulator's `truth.csv` exactly
+//! as the in-process mode does.
+
+use crate::metrics::WallGrid;
+use crate::processes::{ChildGuard, binary, free_port, unique_prefix};
+use crate::run::{RunResult, Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
+use anyhow::{Context, Result, bail};
+use sketchslam_api::client::SketchslamClient;
+use sketchslam_api::types::{CreateSessionRequest, MappingMethod, SketchStart};
+use sketchslam_simulator::scenario::{Scenario, SketchConfig};
+use sketchslam_simulator::simulation::Simulation;
+use sketchslam_simulator::world::World;
+use sketchslam_slam::mapper::Method;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// The robot id the simulator publishes under in an evaluation run.
+const ROBOT_ID: &str = "eval";
+/// How long the service may take to answer `/healthz` after start.
+const SERVICE_START_TIMEOUT: Duration = Duration::from_secs(30);
+/// How long the session may go without processing a scan once the simulator is done.
+const DRAIN_IDLE_TIMEOUT: Duration = Duration::from_secs(20);
+
+fn api_method(method: Method) -> MappingMethod {
+    match method {
+        Method::Odometry => MappingMethod::Odometry,
+        Method::Icp => MappingMethod::Icp,
+        Method::Sketch => MappingMethod::Sketch,
+    }
+}
+
+/// Maps `scenario` with `method` through the real processes and scores the result; with
+/// `max_scans`, only the run's first scans.
+pub fn run_real_process(
+    scenario: &Scenario,
+    method: Method,
+    sketch: Option<&SketchConfig>,
+    out_dir: &Path,
+    max_scans: Option<u64>,
+    mut progress: impl FnMut(u64, u64),
+) -> Result<RunResult> {
+    let service_bin = binary("sketchslam-slam", "slam-service")?;
+    let simulator_bin = binary("sketchslam-simulator", "simulator")?;
+    std::fs::create_dir_all(out_dir)?;
+    let data_dir = out_dir.join("service-data");
+    let _ = std::fs::remove_dir_all(&data_dir);
+    let prefix = unique_prefix("eval");
+    let port = free_port()?;
+    let log = std::fs::File::create(out_dir.join("service.log"))?;
+    let mut service = ChildGuard::spawn(
+        "slam-service",
+        Command::new(&service_bin)
+            .args(["--listen", &format!("127.0.0.1:{port}")])
+            .arg("--data-dir")
+            .arg(&data_dir)
+            .args(["--ipc-prefix", &prefix])
+            .env_remove("SKETCHSLAM_TOKEN")
+            .stdout(Stdio::null())
+            .stderr(log),
+    )?;
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()?;
+    let client = SketchslamClient::new(format!("http://127.0.0.1:{port}"));
+    runtime.block_on(wait_healthy(&client, &mut service))?;
+
+    let request = match (method, sketch) {
+        (Method::Sketch, Some(cfg)) => {
+            let bytes = std::fs::read(&cfg.image)
+                .with_context(|| format!("reading {}", cfg.image.display()))?;
+            let info = runtime.block_on(client.upload_sketch(bytes, Some(&cfg.name)))?;
+            CreateSessionRequest {
+                robot_id: ROBOT_ID.into(),
+                method: MappingMethod::Sketch,
+                sketch_id: Some(info.id),
+                start: Some(SketchStart {
+                    u: cfg.start_u_px,
+                    v: cfg.start_v_px,
+                    heading_deg: cfg.start_heading_rad.to_degrees(),
+                }),
+                meters_per_pixel: Some(cfg.meters_per_pixel),
+                seed: Some(scenario.seed),
+            }
+        }
+        (Method::Sketch, None) => bail!("the sketch method needs a sketch"),
+        (m, _) => CreateSessionRequest {
+            robot_id: ROBOT_ID.into(),
+            method: api_method(m),
+            sketch_id: None,
+            start: None,
+            meters_per_pixel: None,
+            seed: Some(scenario.seed),
+        },
+    };
+    let session = runtime.block_on(client.create_session(&request))?;
+
+    let all = Simulation::new(scenario)?.scan_count();
+    let total = max_scans.map_or(all, |m| m.min(all));
+    let truth_path = out_dir.join("truth.csv");
+    let started = Instant::now();
+    let mut simulator = ChildGuard::spawn(
+        "simulator",
+        Command::new(&simulator_bin)
+            .arg("run")
+            .arg(&scenario.dir)
+            .args([
+                "--robot",
+                ROBOT_ID,
+                "--lockstep",
+                "--quiet",
+                "--ipc-prefix",
+                &prefix,
+            ])
+            .arg("--truth-out")
+            .arg(&truth_path)
+            .args(["--max-scans", &total.to_string()])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null()),
+    )?;
+    // Follow the session until the simulator is done and every scan is processed.
+    let mut last_count = 0;
+    let mut last_change = Instant::now();
+    let mut simulator_done = false;
+    loop {
+        std::thread::sleep(Duration::from_millis(200));
+        if !simulator_done {
+            if let Some(status) = simulator.child_mut().try_wait()? {
+                if !status.success() {
+                    bail!("the simulator failed: {status}");
+                }
+                simulator_done = true;
+            }
+        }
+        let info = runtime.block_on(client.get_session(&session.id))?;
+        if let Some(err) = &info.last_error {
+            if info.state == sketchslam_api::types::SessionState::Failed {
+                bail!("the session failed: {err}");
+            }
+        }
+        progress(info.scans_processed, total);
+        if info.scans_processed != last_count {
+            last_count = info.scans_processed;
+            last_change = Instant::now();
+        }
+        if simulator_done && last_count >= total {
+            break;
+        }
+        if simulator_done && last_change.elapsed() > DRAIN_IDLE_TIMEOUT {
+            bail!("the session stopped at {last_count} of {total} scans");
+        }
+    }
+    let wall_s = started.elapsed().as_secs_f64();
+    let stopped = runtime.block_on(client.stop_session(&session.id))?;
+    std::fs::write(
+        out_dir.join("map.pgm"),
+        runtime.block_on(client.map_pgm(&session.id))?,
+    )?;
+    std::fs::write(
+        out_dir.join("map.yaml"),
+        runtime.block_on(client.map_yaml(&session.id))?,
+    )?;
+    std::fs::write(
+        out_dir.join("trajectory.csv"),
+        runtime.block_on(client.trajectory_csv(&session.id))?,
+    )?;
+    service.terminate(Duration::from_secs(10));
+
+    let world = World::load(&scenario.world.image, scenario.world.resolution_m)?;
+    let walls = WallGrid::from_image(
+        &image::open(&scenario.world.image)?.to_luma8(),
+        scenario.world.resolution_m,
+    );
+    let poses = read_trajectory_csv(&truth_path)?;
+    let seen_walls = seen_wall_pixels(scenario, &world, &walls, &poses);
+    let truth = Truth {
+        poses,
+        seen_walls,
+        walls,
+    };
+    let mut result = score_artifacts(out_dir, &truth)?;
+    result.scenario = scenario.name.clone();
+    result.method = method.to_string();
+    result.sketch = sketch.map(|s| s.name.clone());
+    result.scans = stopped.scans_processed;
+    result.wall_s = wall_s;
+    result.scans_per_s = stopped.scans_processed as f64 / wall_s.max(1e-9);
+    result.recoveries = stopped.recoveries as u32;
+    Ok(result)
+}
+
+async fn wait_healthy(client: &SketchslamClient, service: &mut ChildGuard) -> Result<()> {
+    let deadline = Instant::now() + SERVICE_START_TIMEOUT;
+    loop {
+        if client.health().await.is_ok() {
+            return Ok(());
+        }
+        if let Some(status) = service.child_mut().try_wait()? {
+            bail!("slam-service exited at start: {status} (see service.log)");
+        }
+        if Instant::now() > deadline {
+            bail!("slam-service did not answer /healthz within {SERVICE_START_TIMEOUT:?}");
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
