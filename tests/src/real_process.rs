@@ -130,19 +130,17 @@ pub fn run_real_process(
     let mut simulator_done = false;
     loop {
         std::thread::sleep(Duration::from_millis(200));
-        if !simulator_done {
-            if let Some(status) = simulator.child_mut().try_wait()? {
-                if !status.success() {
-                    bail!("the simulator failed: {status}");
-                }
-                simulator_done = true;
+        if !simulator_done && let Some(status) = simulator.child_mut().try_wait()? {
+            if !status.success() {
+                bail!("the simulator failed: {status}");
             }
+            simulator_done = true;
         }
         let info = runtime.block_on(client.get_session(&session.id))?;
-        if let Some(err) = &info.last_error {
-            if info.state == sketchslam_api::types::SessionState::Failed {
-                bail!("the session failed: {err}");
-            }
+        if let Some(err) = &info.last_error
+            && info.state == sketchslam_api::types::SessionState::Failed
+        {
+            bail!("the session failed: {err}");
         }
         progress(info.scans_processed, total);
         if info.scans_processed != last_count {

@@ -235,7 +235,7 @@ impl Mapper {
         };
         Ok(Mapper {
             method,
-            grid: OccupancyGrid::new(config.grid.clone()),
+            grid: OccupancyGrid::new(config.grid),
             config,
             engine,
             start_pose,
@@ -306,7 +306,7 @@ impl Mapper {
             Engine::Icp { previous_points } => {
                 let corrected = match previous_points.as_deref() {
                     Some(reference) if reference.len() >= 10 && points.len() >= 10 => {
-                        let icp = Icp::new(reference, self.config.icp.clone());
+                        let icp = Icp::new(reference, self.config.icp);
                         let result = icp.align(&points, increment, IcpMode::Full);
                         if result.converged {
                             self.map_at_fix.compose(&result.pose)

@@ -129,7 +129,7 @@ impl SketchTracker {
             rng,
             observation: LineObservationConfig::default(),
             ransac: RansacConfig::default(),
-            icp: config.icp.clone(),
+            icp: config.icp,
             reference_kind: config.sketch_icp_reference,
             reference: None,
             scans_since_reference: 0,
@@ -286,7 +286,7 @@ impl SketchTracker {
                     pts
                 }
             };
-            self.reference = Some((Icp::new(&points, self.icp.clone()), guess));
+            self.reference = Some((Icp::new(&points, self.icp), guess));
             self.scans_since_reference = 0;
         }
         let Some((icp, _)) = &self.reference else {

@@ -281,11 +281,11 @@ impl Registry {
             mapper_config.seed = seed;
         }
         let mapper = Mapper::new(method, prior, mapper_config).map_err(|e| match e {
-                EngineError::InvalidParameter { name, reason } => {
-                    ApiError::invalid("invalid_parameter", format!("{name}: {reason}"))
-                }
-                other => ApiError::internal(other),
-            })?;
+            EngineError::InvalidParameter { name, reason } => {
+                ApiError::invalid("invalid_parameter", format!("{name}: {reason}"))
+            }
+            other => ApiError::internal(other),
+        })?;
         let info = SessionInfo {
             id: id.to_string(),
             robot_id: request.robot_id.clone(),
