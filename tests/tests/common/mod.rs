@@ -1,0 +1,230 @@
+//! Helpers shared by the multi-process robustness tests (`simulator_restart`,
+//! `service_restart`, `bad_scans`, `http_errors`): a temporary folder removed on drop, the
+//! real `slam-service` started on a free port and waited for, the simulator launched on
+//! `paper-env1`, and bounded polling of a session.
+//!
+//! Every wait has a deadline; every child is a [`ChildGuard`], killed on drop.
+
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+use sketchslam_api::{
+    CreateSessionRequest, MappingMethod, SessionInfo, SessionState, SketchStart, SketchslamClient,
+};
+use sketchslam_simulator::scenario::{Scenario, SketchConfig};
+use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario, free_port, unique_prefix};
+
+/// How long the service may take to answer `/healthz`.
+pub const SERVICE_START_TIMEOUT: Duration = Duration::from_secs(60);
+
+/// A folder removed on drop.
+pub struct TempDir(pub PathBuf);
+
+impl TempDir {
+    /// A fresh folder under the system temp dir.
+    pub fn new(tag: &str) -> Result<Self> {
+        let p = std::env::temp_dir().join(format!("{}-{tag}", unique_prefix(tag)));
+        std::fs::create_dir_all(&p)?;
+        Ok(TempDir(p))
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// A running `slam-service` and a client of it.
+pub struct Service {
+    /// The process.
+    pub guard: ChildGuard,
+    /// A client of its API (without a token).
+    pub client: SketchslamClient,
+    /// `http://127.0.0.1:PORT`.
+    pub base: String,
+    /// Where its stderr goes.
+    pub log: PathBuf,
+}
+
+/// Starts `slam-service` on a free port over `data_dir` and `prefix`, with `extra` arguments
+/// and `env` variables, and waits until `/healthz` answers 200.
+pub async fn start_service(
+    data_dir: &Path,
+    prefix: &str,
+    extra: &[&str],
+    env: &[(&str, &str)],
+) -> Result<Service> {
+    let exe = binary("sketchslam-slam", "slam-service")?;
+    let port = free_port()?;
+    let log = data_dir.with_extension("log");
+    let mut cmd = Command::new(exe);
+    cmd.args(["--listen", &format!("127.0.0.1:{port}")])
+        .arg("--data-dir")
+        .arg(data_dir)
+        .args(["--ipc-prefix", prefix])
+        .args(extra)
+        .env_remove("SKETCHSLAM_TOKEN")
+        .env_remove("SKETCHSLAM_MAX_BODY_BYTES")
+        .stdout(Stdio::null())
+        .stderr(
+            std::fs::File::options()
+                .create(true)
+                .append(true)
+                .open(&log)?,
+        );
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    let mut guard = ChildGuard::spawn("slam-service", &mut cmd)?;
+    let base = format!("http://127.0.0.1:{port}");
+    let client = SketchslamClient::new(base.clone());
+    let http = reqwest::Client::new();
+    let deadline = Instant::now() + SERVICE_START_TIMEOUT;
+    loop {
+        // Plain GET: /healthz needs no token even when the service has one.
+        if let Ok(r) = http.get(format!("{base}/healthz")).send().await
+            && r.status().is_success()
+        {
+            break;
+        }
+        if let Some(status) = guard.child_mut().try_wait()? {
+            bail!("slam-service exited at start: {status}");
+        }
+        if Instant::now() > deadline {
+            bail!("slam-service did not answer /healthz within {SERVICE_START_TIMEOUT:?}");
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    Ok(Service {
+        guard,
+        client,
+        base,
+        log,
+    })
+}
+
+/// Prints the last lines of a service log (on failure).
+pub fn dump_log(log: &Path, lines: usize) {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    let tail: Vec<&str> = text.lines().rev().take(lines).collect();
+    for line in tail.iter().rev() {
+        eprintln!("slam-service| {line}");
+    }
+}
+
+/// `paper-env1` and its sketch A.
+pub fn paper_env1_sketch_a() -> Result<(Scenario, SketchConfig)> {
+    let scenario = Scenario::load(&bundled_scenario("paper-env1"))?;
+    let sketch = scenario
+        .sketches
+        .iter()
+        .find(|s| s.name == "A")
+        .context("sketch A of paper-env1")?
+        .clone();
+    Ok((scenario, sketch))
+}
+
+/// Uploads sketch A and starts a sketch session for `robot` at its marked start.
+pub async fn start_sketch_a_session(
+    client: &SketchslamClient,
+    robot: &str,
+) -> Result<(String, SessionInfo)> {
+    let (_, cfg) = paper_env1_sketch_a()?;
+    let sketch = client
+        .upload_sketch(std::fs::read(&cfg.image)?, Some("A"))
+        .await?;
+    let session = client
+        .create_session(&CreateSessionRequest {
+            robot_id: robot.into(),
+            method: MappingMethod::Sketch,
+            sketch_id: Some(sketch.id.clone()),
+            start: Some(SketchStart {
+                u: cfg.start_u_px,
+                v: cfg.start_v_px,
+                heading_deg: cfg.start_heading_rad.to_degrees(),
+            }),
+            meters_per_pixel: Some(cfg.meters_per_pixel),
+            seed: None,
+        })
+        .await?;
+    Ok((sketch.id, session))
+}
+
+/// Launches the simulator on `paper-env1` in lock-step for `robot`.
+pub fn spawn_simulator_lockstep(
+    prefix: &str,
+    robot: &str,
+    max_scans: u64,
+    truth_out: Option<&Path>,
+) -> Result<ChildGuard> {
+    let exe = binary("sketchslam-simulator", "simulator")?;
+    let mut cmd = Command::new(exe);
+    cmd.arg("run")
+        .arg(bundled_scenario("paper-env1"))
+        .args(["--robot", robot, "--lockstep", "--quiet"])
+        .args(["--ipc-prefix", prefix])
+        .args(["--max-scans", &max_scans.to_string()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null());
+    if let Some(p) = truth_out {
+        cmd.arg("--truth-out").arg(p);
+    }
+    ChildGuard::spawn("simulator", &mut cmd)
+}
+
+/// Polls the session every 100 ms until `done` holds (Ok), it fails, or `timeout` passes.
+pub async fn wait_session(
+    client: &SketchslamClient,
+    id: &str,
+    timeout: Duration,
+    what: &str,
+    mut done: impl FnMut(&SessionInfo) -> bool,
+) -> Result<SessionInfo> {
+    let deadline = Instant::now() + timeout;
+    loop {
+        let info = client.get_session(id).await?;
+        if info.state == SessionState::Failed {
+            bail!(
+                "session failed while waiting for {what}: {:?}",
+                info.last_error
+            );
+        }
+        if done(&info) {
+            return Ok(info);
+        }
+        if Instant::now() > deadline {
+            bail!("timed out after {timeout:?} waiting for {what}; last status {info:?}");
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
+/// Waits until the session's scan count has not changed for `quiet`, at most `timeout`.
+pub async fn wait_settled(
+    client: &SketchslamClient,
+    id: &str,
+    quiet: Duration,
+    timeout: Duration,
+) -> Result<SessionInfo> {
+    let deadline = Instant::now() + timeout;
+    let mut last = client.get_session(id).await?;
+    let mut since = Instant::now();
+    loop {
+        tokio::time::sleep(Duration::from_millis(100)).await;
+        let info = client.get_session(id).await?;
+        if info.scans_processed != last.scans_processed {
+            since = Instant::now();
+        } else if since.elapsed() >= quiet {
+            return Ok(info);
+        }
+        last = info;
+        if Instant::now() > deadline {
+            bail!("the session did not settle within {timeout:?}: {last:?}");
+        }
+    }
+}
