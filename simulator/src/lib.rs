@@ -4,14 +4,18 @@
 //! Pipeline: [`scenario`] loads a scenario folder; [`world`] holds the truth grid and casts
 //! rays; [`motion`] is the true trajectory; [`odometry`] and [`lidar`] are the sensor
 //! models; [`simulation`] streams their messages in stamp order; [`truth`] writes the true
-//! poses; [`render`] draws a scenario.
+//! poses; [`render`] draws a scenario. Real data: [`dataset`] loads a dataset folder,
+//! [`carmen`] parses its CARMEN log and [`replay`] streams it like a simulation.
 
+pub mod carmen;
+pub mod dataset;
 pub mod error;
 pub mod lidar;
 pub mod motion;
 pub mod odometry;
 pub mod publish;
 pub mod render;
+pub mod replay;
 pub mod scenario;
 pub mod simulation;
 pub mod truth;

@@ -1,0 +1,295 @@
+//! Dataset folders: `dataset.toml`, the counterpart of `scenario.toml` for real data — a
+//! recorded CARMEN log instead of a world and a path, the benchmark relations that score
+//! it, the odometry noise a replay adds, and the sketches of the place.
+//!
+//! [`Dataset::load`] reads and checks the file; [`crate::replay::Replay`] streams the log
+//! as a simulation would; the evaluation scores the result against the relations. The file
+//! (every table rejects unknown keys; angles in degrees in the file, radians here):
+//!
+//! ```toml
+//! name = "intel-lab"
+//! log = "intel.gfs.log"                  # CARMEN log: FLASER / ROBOTLASER1 and ODOM lines
+//! relations = "intel.relations"          # optional: t1 t2 x y z roll pitch yaw
+//! relations_time_offset = 976052857.337  # relation time = log timestamp + this, seconds
+//! [lidar]
+//! fov_deg = 180.0                        # FLASER beams span it, first at heading − fov/2
+//! max_range = 50.0                       # readings at or beyond it are no return, meters
+//! [odometry]                             # the drift a replay adds (see crate::odometry)
+//! trans_noise = 0.05
+//! rot_noise = 0.05
+//! trans_bias = 0.02
+//! rot_bias = 0.02
+//! seed = 5
+//! [[sketch]]                             # as in scenario.toml
+//! ```
+
+use crate::error::{SimError, line_of_offset};
+use crate::scenario::{OdometryConfig, SketchConfig, SketchTable};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// The file a dataset folder must hold.
+pub const DATASET_FILE: &str = "dataset.toml";
+
+/// A loaded and checked dataset. Angles in radians, lengths in meters, paths absolute.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dataset {
+    /// The dataset's name.
+    pub name: String,
+    /// The dataset folder (absolute).
+    pub dir: PathBuf,
+    /// The CARMEN log (absolute path).
+    pub log: PathBuf,
+    /// The relations file (absolute path), if the dataset has one.
+    pub relations: Option<PathBuf>,
+    /// Relation time = log timestamp + this, seconds.
+    pub relations_time_offset_s: f64,
+    /// The scanner.
+    pub lidar: DatasetLidar,
+    /// The drift a replay adds to the log's poses (`rate_hz` is unused: the log's rate).
+    pub odometry: OdometryConfig,
+    /// Seed of the replay's odometry noise.
+    pub seed: u64,
+    /// The hand-drawn maps, in file order.
+    pub sketches: Vec<SketchConfig>,
+}
+
+/// `[lidar]`: what a `FLASER` line does not say about its scanner.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DatasetLidar {
+    /// Field of view of a `FLASER` scan, radians in (0, 2π].
+    pub fov_rad: f64,
+    /// Readings at or beyond it are no return, meters.
+    pub max_range_m: f64,
+}
+
+impl Dataset {
+    /// Loads and checks `dir/dataset.toml`: unknown, missing or mistyped keys, a log (and
+    /// relations file) that exists, a field of view in (0, 360], a positive range,
+    /// non-negative noises, sketches as in a scenario with unique names.
+    pub fn load(dir: &Path) -> Result<Dataset, SimError> {
+        let dir = std::fs::canonicalize(dir)
+            .or_else(|_| std::path::absolute(dir))
+            .unwrap_or_else(|_| dir.to_path_buf());
+        let file = dir.join(DATASET_FILE);
+        let source = std::fs::read_to_string(&file).map_err(|source| SimError::Io {
+            file: file.clone(),
+            action: "cannot read",
+            source,
+        })?;
+        Dataset::from_toml(&source, &file)
+    }
+
+    /// Parses and checks dataset text as if it were the file `file`; relative paths are
+    /// taken from `file`'s folder.
+    pub fn from_toml(source: &str, file: &Path) -> Result<Dataset, SimError> {
+        let raw: DatasetFile = toml::from_str(source).map_err(|e| SimError::Parse {
+            file: file.to_path_buf(),
+            line: e.span().map(|s| line_of_offset(source, s.start)),
+            key: None,
+            message: e.message().trim().to_string(),
+        })?;
+        let dir = file.parent().unwrap_or(Path::new(".")).to_path_buf();
+        let invalid = |table: Option<&str>, key: &str, message: String| SimError::Invalid {
+            file: file.to_path_buf(),
+            line: key_line(source, table, key),
+            key: match table {
+                Some(t) => format!("{t}.{key}"),
+                None => key.to_string(),
+            },
+            message,
+        };
+        if raw.name.trim().is_empty() {
+            return Err(invalid(None, "name", "must not be empty".into()));
+        }
+        let log = dir.join(&raw.log);
+        if !log.is_file() {
+            return Err(invalid(
+                None,
+                "log",
+                format!("{} is not a readable file", log.display()),
+            ));
+        }
+        let relations = match &raw.relations {
+            Some(r) => {
+                let path = dir.join(r);
+                if !path.is_file() {
+                    return Err(invalid(
+                        None,
+                        "relations",
+                        format!("{} is not a readable file", path.display()),
+                    ));
+                }
+                Some(path)
+            }
+            None => None,
+        };
+        if !raw.relations_time_offset.is_finite() {
+            return Err(invalid(
+                None,
+                "relations_time_offset",
+                format!(
+                    "must be a finite number of seconds, got {}",
+                    raw.relations_time_offset
+                ),
+            ));
+        }
+        let fov_rad = raw.lidar.fov_deg.to_radians();
+        if !(fov_rad.is_finite() && fov_rad > 0.0 && fov_rad <= std::f64::consts::TAU + 1e-12) {
+            return Err(invalid(
+                Some("lidar"),
+                "fov_deg",
+                format!("must be in (0, 360] degrees, got {}", raw.lidar.fov_deg),
+            ));
+        }
+        if !(raw.lidar.max_range.is_finite() && raw.lidar.max_range > crate::lidar::RANGE_MIN_M) {
+            return Err(invalid(
+                Some("lidar"),
+                "max_range",
+                format!(
+                    "must be a finite range above {} m, got {}",
+                    crate::lidar::RANGE_MIN_M,
+                    raw.lidar.max_range
+                ),
+            ));
+        }
+        let o = &raw.odometry;
+        let odometry = OdometryConfig {
+            rate_hz: 0.0,
+            trans_noise: o.trans_noise,
+            rot_noise: o.rot_noise,
+            trans_bias: o.trans_bias,
+            rot_bias: o.rot_bias,
+        };
+        if let Err(p) = odometry.validate_noise() {
+            return Err(invalid(Some("odometry"), p.key, p.message));
+        }
+        let mut sketches: Vec<SketchConfig> = Vec::with_capacity(raw.sketch.len());
+        for (index, table) in raw.sketch.iter().enumerate() {
+            let sketch = table.resolve(file, source, index)?;
+            if sketches.iter().any(|s| s.name == sketch.name) {
+                return Err(SimError::Invalid {
+                    file: file.to_path_buf(),
+                    line: None,
+                    key: format!("sketch[{index}].name"),
+                    message: format!("sketch name {:?} is used twice", sketch.name),
+                });
+            }
+            sketches.push(sketch);
+        }
+        Ok(Dataset {
+            name: raw.name,
+            dir,
+            log,
+            relations,
+            relations_time_offset_s: raw.relations_time_offset,
+            lidar: DatasetLidar {
+                fov_rad,
+                max_range_m: raw.lidar.max_range,
+            },
+            odometry,
+            seed: o.seed,
+            sketches,
+        })
+    }
+
+    /// The sketch called `name`, if any.
+    pub fn sketch(&self, name: &str) -> Option<&SketchConfig> {
+        self.sketches.iter().find(|s| s.name == name)
+    }
+}
+
+/// The 1-based line where `key` is set in `[table]` (None: the top level), if found.
+fn key_line(source: &str, table: Option<&str>, key: &str) -> Option<usize> {
+    let mut current: Option<&str> = None;
+    for (n, line) in source.lines().enumerate() {
+        let t = line.trim();
+        if let Some(rest) = t.strip_prefix('[') {
+            current = Some(rest.trim_matches(|c| c == '[' || c == ']').trim());
+            continue;
+        }
+        if current == table
+            && let Some((k, _)) = t.split_once('=')
+            && k.trim() == key
+        {
+            return Some(n + 1);
+        }
+    }
+    None
+}
+
+// ---------------------------------------------------------------------------------------
+// The file as written.
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DatasetFile {
+    name: String,
+    log: PathBuf,
+    #[serde(default)]
+    relations: Option<PathBuf>,
+    #[serde(default)]
+    relations_time_offset: f64,
+    lidar: LidarTable,
+    odometry: OdometryTable,
+    #[serde(default)]
+    sketch: Vec<SketchTable>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LidarTable {
+    fov_deg: f64,
+    max_range: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct OdometryTable {
+    trans_noise: f64,
+    rot_noise: f64,
+    trans_bias: f64,
+    rot_bias: f64,
+    seed: u64,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn temp_dir(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("sketchslam-ds-{}-{name}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    const TEXT: &str = "name = \"t\"\nlog = \"x.log\"\n[lidar]\nfov_deg = 180.0\nmax_range = 50.0\n\
+        [odometry]\ntrans_noise = 0.05\nrot_noise = 0.05\ntrans_bias = 0.02\nrot_bias = 0.02\nseed = 5\n";
+
+    #[test]
+    fn loads_a_minimal_dataset_and_rejects_bad_values() {
+        let dir = temp_dir("min");
+        std::fs::write(dir.join("x.log"), "ODOM 0 0 0 0 0 0 0 h 0\n").unwrap();
+        std::fs::write(dir.join(DATASET_FILE), TEXT).unwrap();
+        let d = Dataset::load(&dir).unwrap();
+        assert_eq!(d.name, "t");
+        assert!((d.lidar.fov_rad - std::f64::consts::PI).abs() < 1e-12);
+        assert_eq!(d.seed, 5);
+        assert!(d.relations.is_none());
+
+        let file = dir.join(DATASET_FILE);
+        let e = Dataset::from_toml(&TEXT.replace("fov_deg = 180.0", "fov_deg = -1"), &file)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(":4:") && e.contains("lidar.fov_deg"), "{e}");
+        let e = Dataset::from_toml(&format!("{TEXT}bogus = 1\n"), &file)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("bogus"), "{e}");
+        let e = Dataset::from_toml(&TEXT.replace("x.log", "missing.log"), &file)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(":2:") && e.contains("`log`"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
