@@ -3,6 +3,9 @@
 //! - `simulator run SCENARIO_DIR --robot ID [--rate F | --lockstep] [--truth-out FILE]
 //!   [--ipc-prefix P] [--max-scans N]` simulates the scenario and publishes its scans and
 //!   odometry over iceoryx2 (`shared::ipc`), then writes the true poses of what it sent;
+//! - `simulator replay DATASET_DIR --robot ID [same options as run]` publishes a dataset's
+//!   recorded log the same way (the log's corrected poses plus seeded drift as odometry;
+//!   `--truth-out` gets the log's poses at the scans);
 //! - `simulator render SCENARIO_DIR --out FILE.png [--scans N]` draws the scenario.
 //!
 //! Logs go to stderr (`RUST_LOG`, default `info`); the exit code is non-zero with a message
@@ -13,8 +16,10 @@ use clap::{Parser, Subcommand};
 use sketchslam_shared::Pose2;
 use sketchslam_shared::SensorEvent;
 use sketchslam_shared::ipc::{DEFAULT_BACKPRESSURE_TIMEOUT, IpcConfig, RobotPublisher};
+use sketchslam_simulator::dataset::Dataset;
 use sketchslam_simulator::publish::{Pace, PublishOptions, publish_events};
-use sketchslam_simulator::{Scenario, Simulation};
+use sketchslam_simulator::replay::Replay;
+use sketchslam_simulator::{Scenario, SimStep, Simulation};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -29,13 +34,15 @@ struct Cli {
 enum Command {
     /// Simulate a scenario and publish its scans and odometry over iceoryx2.
     Run(RunArgs),
+    /// Replay a dataset's log (dataset.toml) and publish it like a simulation.
+    Replay(RunArgs),
     /// Draw a scenario (world, path, start, a few scans) as a PNG.
     Render(RenderArgs),
 }
 
 #[derive(Debug, clap::Args)]
 struct RunArgs {
-    /// The scenario folder (holding scenario.toml).
+    /// The scenario folder (holding scenario.toml; dataset.toml for `replay`).
     scenario_dir: PathBuf,
     /// The robot id the messages are published under.
     #[arg(long)]
@@ -90,7 +97,8 @@ fn main() {
         .init();
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Run(args) => run(args),
+        Command::Run(args) => run(args, false),
+        Command::Replay(args) => run(args, true),
         Command::Render(args) => render(args),
     };
     if let Err(e) = result {
@@ -99,7 +107,8 @@ fn main() {
     }
 }
 
-fn run(args: RunArgs) -> Result<()> {
+/// Publishes a simulation of a scenario, or (`replay`) a dataset's log.
+fn run(args: RunArgs, replay: bool) -> Result<()> {
     let pace = if args.lockstep {
         if !(args.connect_timeout_s.is_finite() && args.connect_timeout_s > 0.0) {
             bail!("--connect-timeout-s must be a positive number of seconds");
@@ -118,12 +127,23 @@ fn run(args: RunArgs) -> Result<()> {
     if args.backpressure_timeout_ms == 0 {
         bail!("--backpressure-timeout-ms must be at least 1");
     }
-    let scenario = Scenario::load(&args.scenario_dir)
-        .with_context(|| format!("loading scenario {}", args.scenario_dir.display()))?;
-    let simulation = Simulation::new(&scenario).context("setting up the simulation")?;
+    let (steps, scan_count): (Box<dyn Iterator<Item = SimStep>>, u64) = if replay {
+        let dataset = Dataset::load(&args.scenario_dir)
+            .with_context(|| format!("loading dataset {}", args.scenario_dir.display()))?;
+        let replay = Replay::new(&dataset).context("reading the log")?;
+        tracing::warn!("{}", replay.drift_note());
+        let scans = replay.scan_count();
+        (Box::new(replay), scans)
+    } else {
+        let scenario = Scenario::load(&args.scenario_dir)
+            .with_context(|| format!("loading scenario {}", args.scenario_dir.display()))?;
+        let simulation = Simulation::new(&scenario).context("setting up the simulation")?;
+        let scans = simulation.scan_count();
+        (Box::new(simulation), scans)
+    };
     let expected_scans = match args.max_scans {
-        Some(max) => max.min(simulation.scan_count()),
-        None => simulation.scan_count(),
+        Some(max) => max.min(scan_count),
+        None => scan_count,
     };
     let config = IpcConfig::new(&args.ipc_prefix).context("--ipc-prefix")?;
     let delivery = pace.delivery(Duration::from_millis(args.backpressure_timeout_ms));
@@ -140,7 +160,7 @@ fn run(args: RunArgs) -> Result<()> {
 
     let mut truth: Vec<(f64, Pose2)> = Vec::new();
     let keep_truth = args.truth_out.is_some();
-    let events = simulation
+    let events = steps
         .inspect(|step| {
             // truth.csv holds one row per scan (DESIGN.md).
             if keep_truth && matches!(step.event, SensorEvent::Scan(_)) {
