@@ -1,8 +1,10 @@
 //! Evaluation and multi-process test support for sketchslam: the accuracy metrics of
 //! DESIGN.md, the runs `evaluate` performs, and helpers that launch the real binaries.
 
+pub mod dataset_run;
 pub mod metrics;
 pub mod overlay;
 pub mod processes;
 pub mod real_process;
+pub mod relations;
 pub mod run;

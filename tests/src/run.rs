@@ -35,10 +35,26 @@ pub struct RunResult {
     pub sketch: Option<String>,
     /// Absolute trajectory error after SE(2) alignment, meters.
     pub ate_rmse_m: f64,
-    /// Mean distance of the aligned map's occupied cells to the true walls, meters.
+    /// Mean distance of the aligned map's occupied cells to the true walls, meters (NaN,
+    /// written as null, for a dataset: no true walls).
     pub map_error_m: f64,
-    /// Share of seen wall pixels mapped within 0.25 m.
+    /// Share of seen wall pixels mapped within 0.25 m (NaN for a dataset).
     pub completeness: f64,
+    /// Dataset runs: mean translational error on the relations, meters.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rel_trans_m: Option<f64>,
+    /// Dataset runs: standard deviation of the translational relation error, meters.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rel_trans_sd_m: Option<f64>,
+    /// Dataset runs: mean rotational error on the relations, degrees.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rel_rot_deg: Option<f64>,
+    /// Dataset runs: standard deviation of the rotational relation error, degrees.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rel_rot_sd_deg: Option<f64>,
+    /// Dataset runs: relations scored (inside the trajectory).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub relations: Option<usize>,
     /// Scans processed.
     pub scans: u64,
     /// Wall-clock seconds of the mapping.
@@ -215,6 +231,11 @@ pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
         ate_rmse_m: traj.ate_rmse_m,
         map_error_m: map.map_error_m,
         completeness: map.completeness,
+        rel_trans_m: None,
+        rel_trans_sd_m: None,
+        rel_rot_deg: None,
+        rel_rot_sd_deg: None,
+        relations: None,
         scans: 0,
         wall_s: 0.0,
         scans_per_s: 0.0,

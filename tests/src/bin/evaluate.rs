@@ -7,12 +7,20 @@
 //! [--json FILE] [--in-process]`: every scenario × method × sketch is one run whose
 //! artifacts go to `OUT/SCENARIO/RUN/`; the metrics are printed as a table and written as
 //! JSON.
+//!
+//! A folder holding `dataset.toml` instead of `scenario.toml` is real data: its log is
+//! replayed (with the odometry drift the replay adds), the runs are scored by the ATE
+//! against the log's corrected poses and by the dataset's relations (no map error or
+//! completeness: no true walls), and the published relation errors are printed beside.
+//! Dataset runs are in-process only for now.
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
-use sketchslam_simulator::scenario::Scenario;
+use sketchslam_simulator::dataset::{DATASET_FILE, Dataset};
+use sketchslam_simulator::scenario::{Scenario, SketchConfig};
 use sketchslam_slam::mapper::Method;
+use sketchslam_tests::dataset_run::run_dataset_in_process;
 use sketchslam_tests::real_process::run_real_process;
 use sketchslam_tests::run::{RunResult, run_in_process, run_name};
 use std::path::PathBuf;
@@ -20,7 +28,7 @@ use std::path::PathBuf;
 #[derive(Parser, Debug)]
 #[command(about = "Map scenarios with sketchslam and score the maps against the truth")]
 struct Args {
-    /// Scenario folders (each with a scenario.toml).
+    /// Scenario folders (each with a scenario.toml) or dataset folders (dataset.toml).
     #[arg(required = true)]
     scenarios: Vec<PathBuf>,
     /// Methods to run, comma-separated.
@@ -52,27 +60,51 @@ fn main() -> Result<()> {
         .map(|m| m.parse())
         .collect::<Result<_, _>>()?;
     let mut plan = Vec::new();
+    let mut datasets = Vec::new();
     for dir in &args.scenarios {
-        let scenario = Scenario::load(dir).with_context(|| format!("loading {}", dir.display()))?;
+        let target = if dir.join(DATASET_FILE).is_file() {
+            if !args.in_process {
+                bail!(
+                    "{}: dataset folders run with --in-process only (no replay through the \
+                     real processes yet)",
+                    dir.display()
+                );
+            }
+            let dataset =
+                Dataset::load(dir).with_context(|| format!("loading {}", dir.display()))?;
+            datasets.push(dataset.clone());
+            Target::Dataset(dataset)
+        } else {
+            Target::Scenario(
+                Scenario::load(dir).with_context(|| format!("loading {}", dir.display()))?,
+            )
+        };
         for &method in &methods {
             if method == Method::Sketch {
-                let sketches: Vec<_> = scenario
-                    .sketches
+                let sketches: Vec<_> = target
+                    .sketches()
                     .iter()
                     .filter(|s| args.sketch.as_ref().is_none_or(|n| *n == s.name))
                     .map(|s| Some(s.name.clone()))
                     .collect();
                 if sketches.is_empty() {
-                    eprintln!("{}: no sketch to run the sketch method with", scenario.name);
+                    eprintln!("{}: no sketch to run the sketch method with", target.name());
                 }
-                plan.extend(sketches.into_iter().map(|s| (scenario.clone(), method, s)));
+                plan.extend(sketches.into_iter().map(|s| (target.clone(), method, s)));
             } else {
-                plan.push((scenario.clone(), method, None));
+                plan.push((target.clone(), method, None));
             }
         }
     }
+    for dataset in &datasets {
+        // Say once per dataset that the odometry is synthetic drift on corrected poses.
+        match sketchslam_simulator::replay::Replay::new(dataset) {
+            Ok(replay) => eprintln!("note: {}", replay.drift_note()),
+            Err(e) => bail!("{}: {e}", dataset.name),
+        }
+    }
     let mut results: Vec<RunResult> = Vec::new();
-    for (i, (scenario, method, sketch)) in plan.iter().enumerate() {
+    for (i, (target, method, sketch)) in plan.iter().enumerate() {
         let name = run_name(*method, sketch.as_deref());
         let bar = ProgressBar::new(0).with_style(
             ProgressStyle::with_template(
@@ -84,14 +116,35 @@ fn main() -> Result<()> {
             "[{}/{}] {}/{}",
             i + 1,
             plan.len(),
-            scenario.name,
+            target.name(),
             name
         ));
-        let out_dir = args.out.join(&scenario.name).join(&name);
-        let sketch_cfg = sketch.as_deref().and_then(|n| scenario.sketch(n));
+        let out_dir = args.out.join(target.name()).join(&name);
+        let sketch_cfg = sketch
+            .as_deref()
+            .and_then(|n| target.sketches().iter().find(|s| s.name == n));
         let progress = |done, total| {
             bar.set_length(total);
             bar.set_position(done);
+        };
+        let scenario = match target {
+            Target::Dataset(dataset) => {
+                let result = run_dataset_in_process(
+                    dataset,
+                    *method,
+                    sketch_cfg,
+                    &out_dir,
+                    args.max_scans,
+                    progress,
+                );
+                bar.finish_and_clear();
+                match result {
+                    Ok(r) => results.push(r),
+                    Err(e) => eprintln!("{}/{}: failed: {e:#}", dataset.name, name),
+                }
+                continue;
+            }
+            Target::Scenario(scenario) => scenario,
         };
         let result = if args.in_process {
             run_in_process(
@@ -119,6 +172,7 @@ fn main() -> Result<()> {
         }
     }
     print_table(&results);
+    print_relations(&results);
     if let Some(path) = &args.json {
         let json = serde_json::json!({ "runs": results });
         std::fs::write(path, serde_json::to_string_pretty(&json)?)?;
@@ -132,6 +186,71 @@ fn main() -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// What a folder holds: a scenario to simulate or a dataset to replay.
+#[derive(Clone)]
+enum Target {
+    Scenario(Scenario),
+    Dataset(Dataset),
+}
+
+impl Target {
+    fn name(&self) -> &str {
+        match self {
+            Target::Scenario(s) => &s.name,
+            Target::Dataset(d) => &d.name,
+        }
+    }
+
+    fn sketches(&self) -> &[SketchConfig] {
+        match self {
+            Target::Scenario(s) => &s.sketches,
+            Target::Dataset(d) => &d.sketches,
+        }
+    }
+}
+
+/// A number, or "-" when there is none (NaN: no true walls on real data).
+fn num(v: f64, width: usize, decimals: usize) -> String {
+    if v.is_nan() {
+        format!("{:>width$}", "-")
+    } else {
+        format!("{v:>width$.decimals$}")
+    }
+}
+
+/// Relation errors of the dataset runs, with the published figures beside.
+fn print_relations(results: &[RunResult]) {
+    let runs: Vec<&RunResult> = results.iter().filter(|r| r.relations.is_some()).collect();
+    if runs.is_empty() {
+        return;
+    }
+    println!();
+    println!(
+        "{:<12} {:<9} {:<10} {:>17} {:>17} {:>9}",
+        "dataset", "method", "sketch", "rel. trans m", "rel. rot deg", "relations"
+    );
+    let pm = |m: Option<f64>, sd: Option<f64>| match (m, sd) {
+        (Some(m), Some(sd)) => format!("{m:.3} ± {sd:.3}"),
+        _ => "-".to_string(),
+    };
+    for r in runs {
+        println!(
+            "{:<12} {:<9} {:<10} {:>17} {:>17} {:>9}",
+            r.scenario,
+            r.method,
+            r.sketch.as_deref().unwrap_or("-"),
+            pm(r.rel_trans_m, r.rel_trans_sd_m),
+            pm(r.rel_rot_deg, r.rel_rot_sd_deg),
+            r.relations.unwrap_or(0)
+        );
+    }
+    println!(
+        "published (Intel, same relations): scan matching 0.220 ± 0.296 m, GMapping (RBPF) \
+         0.070 ± 0.083 m, graph mapping 0.031 ± 0.026 m (Kümmerle et al. 2009); Cartographer \
+         0.0229 ± 0.0239 m, 0.453 ± 1.335° (Hess et al. 2016)"
+    );
 }
 
 fn print_table(results: &[RunResult]) {
@@ -150,13 +269,13 @@ fn print_table(results: &[RunResult]) {
     );
     for r in results {
         println!(
-            "{:<12} {:<9} {:<10} {:>9.3} {:>11.3} {:>8.3} {:>6} {:>8.1} {:>8.0} {:>5}",
+            "{:<12} {:<9} {:<10} {:>9.3} {} {} {:>6} {:>8.1} {:>8.0} {:>5}",
             r.scenario,
             r.method,
             r.sketch.as_deref().unwrap_or("-"),
             r.ate_rmse_m,
-            r.map_error_m,
-            r.completeness,
+            num(r.map_error_m, 11, 3),
+            num(r.completeness, 8, 3),
             r.scans,
             r.wall_s,
             r.scans_per_s,

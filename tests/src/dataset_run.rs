@@ -1,0 +1,272 @@
+//! One evaluation run on real data: a dataset's log replayed into the engine with a
+//! method (and, for `sketch`, one of the dataset's drawings), mapped and scored.
+//!
+//! The counterpart of [`crate::run`] for a dataset folder (`dataset.toml`): the replay
+//! ([`sketchslam_simulator::replay::Replay`]) stands in for the simulation, the log's
+//! corrected poses at the scans are the reference trajectory (`truth.csv`), and with no
+//! true walls the map is not scored: the run is scored by the ATE against the reference
+//! and by the benchmark relations ([`crate::relations`]). Artifacts: `map.pgm`,
+//! `map.yaml`, `trajectory.csv`, `truth.csv`, `overlay.png` (map and both trajectories on
+//! white) and, for sketch runs, `sketch-overlay.png` (the map drawn over the sketch
+//! through the final sketch pose and scale).
+
+use crate::metrics::{self, StampedPose};
+use crate::relations::{Relation, score_relations};
+use crate::run::{RunResult, occupied_points, read_trajectory_csv, sketch_prior};
+use anyhow::{Context, Result};
+use image::{Rgb, RgbImage};
+use sketchslam_shared::{Point2, Pose2, SensorEvent};
+use sketchslam_simulator::dataset::Dataset;
+use sketchslam_simulator::replay::Replay;
+use sketchslam_simulator::scenario::SketchConfig;
+use sketchslam_slam::grid_export::{parse_map_yaml, parse_pgm};
+use sketchslam_slam::mapper::{Mapper, MapperConfig, Method, trajectory_csv};
+use sketchslam_slam::sketch::SketchPose;
+use std::path::Path;
+use std::time::Instant;
+
+/// Meters per pixel of `overlay.png`.
+const OVERLAY_RESOLUTION_M: f64 = 0.05;
+/// Margin around the drawn content, meters.
+const OVERLAY_MARGIN_M: f64 = 1.0;
+
+const MAP: Rgb<u8> = Rgb([40, 40, 40]);
+const TRUTH: Rgb<u8> = Rgb([20, 160, 40]);
+const ESTIMATE: Rgb<u8> = Rgb([30, 60, 220]);
+const SKETCH_MAP: Rgb<u8> = Rgb([220, 30, 30]);
+
+/// The dataset's relations (empty without a relations file).
+pub fn dataset_relations(dataset: &Dataset) -> Result<Vec<Relation>> {
+    match &dataset.relations {
+        Some(path) => crate::relations::read_relations(path, dataset.relations_time_offset_s),
+        None => Ok(Vec::new()),
+    }
+}
+
+/// Maps `dataset`'s log with `method` in this process, writes the artifacts into `out_dir`
+/// and scores them; with `max_scans`, only the log's first scans. `progress(done, total)`
+/// is called as scans are processed.
+pub fn run_dataset_in_process(
+    dataset: &Dataset,
+    method: Method,
+    sketch: Option<&SketchConfig>,
+    out_dir: &Path,
+    max_scans: Option<u64>,
+    mut progress: impl FnMut(u64, u64),
+) -> Result<RunResult> {
+    let prior = match (method, sketch) {
+        (Method::Sketch, Some(cfg)) => Some(sketch_prior(cfg)?),
+        (Method::Sketch, None) => anyhow::bail!("the sketch method needs a sketch"),
+        _ => None,
+    };
+    let config = MapperConfig {
+        seed: dataset.seed,
+        ..MapperConfig::default()
+    };
+    let mut mapper = Mapper::new(method, prior, config)?;
+    let replay = Replay::new(dataset)?;
+    let total = max_scans.map_or(replay.scan_count(), |m| m.min(replay.scan_count()));
+    let mut truth_poses = Vec::new();
+    let mut mapping_s = 0.0;
+    for step in replay {
+        let started = Instant::now();
+        mapper.on_event(&step.event);
+        mapping_s += started.elapsed().as_secs_f64();
+        if let SensorEvent::Scan(scan) = &step.event {
+            truth_poses.push(StampedPose {
+                t_s: scan.header.stamp_ns as f64 * 1e-9,
+                pose: step.truth,
+            });
+            progress(truth_poses.len() as u64, total);
+            if truth_poses.len() as u64 >= total {
+                break;
+            }
+        }
+    }
+    std::fs::create_dir_all(out_dir)?;
+    std::fs::write(out_dir.join("map.pgm"), mapper.grid().to_pgm())?;
+    std::fs::write(out_dir.join("map.yaml"), mapper.grid().to_yaml("map.pgm"))?;
+    std::fs::write(
+        out_dir.join("trajectory.csv"),
+        trajectory_csv(mapper.trajectory()),
+    )?;
+    let truth_rows: Vec<(f64, Pose2)> = truth_poses.iter().map(|p| (p.t_s, p.pose)).collect();
+    sketchslam_simulator::truth::write_truth_csv(&out_dir.join("truth.csv"), &truth_rows)?;
+    let relations = dataset_relations(dataset)?;
+    let mut result = score_dataset_artifacts(out_dir, &truth_poses, &relations)?;
+    if let (Some(cfg), Some(sketch_pose)) = (sketch, mapper.pose().sketch) {
+        draw_sketch_overlay(out_dir, cfg, mapper.pose().map, &sketch_pose)
+            .context("drawing sketch-overlay.png")?;
+    }
+    let health = mapper.health();
+    result.scenario = dataset.name.clone();
+    result.method = method.to_string();
+    result.sketch = sketch.map(|s| s.name.clone());
+    result.scans = health.scans_processed;
+    result.wall_s = mapping_s;
+    result.scans_per_s = health.scans_processed as f64 / mapping_s.max(1e-9);
+    result.recoveries = health.recoveries;
+    Ok(result)
+}
+
+/// Reads a dataset run's `map.pgm`, `map.yaml` and `trajectory.csv`, scores the trajectory
+/// against the reference poses (`truth`, ATE after SE(2) alignment) and the relations,
+/// and draws `overlay.png`. Map error and completeness are NaN (no true walls);
+/// name/method fields are left empty.
+pub fn score_dataset_artifacts(
+    out_dir: &Path,
+    truth: &[StampedPose],
+    relations: &[Relation],
+) -> Result<RunResult> {
+    let yaml = parse_map_yaml(&std::fs::read_to_string(out_dir.join("map.yaml"))?)?;
+    let (width, height, pixels) = parse_pgm(&std::fs::read(out_dir.join("map.pgm"))?)?;
+    let occupied = occupied_points(width, height, &pixels, yaml.resolution_m, &yaml.origin);
+    let estimate = read_trajectory_csv(&out_dir.join("trajectory.csv"))?;
+    let traj = metrics::score_trajectory(&estimate, truth)
+        .context("the trajectory does not overlap the reference")?;
+    let rel = score_relations(&estimate, relations);
+    draw_overlay(&occupied, &estimate, truth, &traj.alignment).save(out_dir.join("overlay.png"))?;
+    Ok(RunResult {
+        scenario: String::new(),
+        method: String::new(),
+        sketch: None,
+        ate_rmse_m: traj.ate_rmse_m,
+        map_error_m: f64::NAN,
+        completeness: f64::NAN,
+        rel_trans_m: rel.map(|r| r.trans_mean_m),
+        rel_trans_sd_m: rel.map(|r| r.trans_sd_m),
+        rel_rot_deg: rel.map(|r| r.rot_mean_deg),
+        rel_rot_sd_deg: rel.map(|r| r.rot_sd_deg),
+        relations: Some(rel.map_or(0, |r| r.used)),
+        scans: 0,
+        wall_s: 0.0,
+        scans_per_s: 0.0,
+        recoveries: 0,
+        out_dir: out_dir.to_path_buf(),
+    })
+}
+
+/// The map (dark), the reference trajectory (green) and the aligned estimate (blue) on
+/// white, in the reference frame, north up, at [`OVERLAY_RESOLUTION_M`].
+pub fn draw_overlay(
+    occupied_map_frame: &[Point2],
+    estimate: &[StampedPose],
+    truth: &[StampedPose],
+    alignment: &Pose2,
+) -> RgbImage {
+    let map: Vec<Point2> = occupied_map_frame
+        .iter()
+        .map(|p| alignment.transform_point(p))
+        .collect();
+    let est: Vec<Point2> = estimate
+        .iter()
+        .map(|e| alignment.transform_point(&e.pose.position()))
+        .collect();
+    let tru: Vec<Point2> = truth.iter().map(|t| t.pose.position()).collect();
+    let all = map.iter().chain(&est).chain(&tru);
+    let (mut min_x, mut min_y, mut max_x, mut max_y) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
+    for p in all {
+        min_x = min_x.min(p.x);
+        min_y = min_y.min(p.y);
+        max_x = max_x.max(p.x);
+        max_y = max_y.max(p.y);
+    }
+    if min_x > max_x {
+        return RgbImage::from_pixel(1, 1, Rgb([255, 255, 255]));
+    }
+    let (min_x, min_y) = (min_x - OVERLAY_MARGIN_M, min_y - OVERLAY_MARGIN_M);
+    // Capped so a runaway estimate cannot ask for a huge image.
+    let w =
+        (((max_x + OVERLAY_MARGIN_M - min_x) / OVERLAY_RESOLUTION_M).ceil() as u32).clamp(1, 8000);
+    let h =
+        (((max_y + OVERLAY_MARGIN_M - min_y) / OVERLAY_RESOLUTION_M).ceil() as u32).clamp(1, 8000);
+    let mut img = RgbImage::from_pixel(w, h, Rgb([255, 255, 255]));
+    let plot = |img: &mut RgbImage, p: &Point2, colour: Rgb<u8>, radius: i64| {
+        let c = ((p.x - min_x) / OVERLAY_RESOLUTION_M).floor() as i64;
+        let r = h as i64 - 1 - ((p.y - min_y) / OVERLAY_RESOLUTION_M).floor() as i64;
+        for dr in -radius..=radius {
+            for dc in -radius..=radius {
+                let (x, y) = (c + dc, r + dr);
+                if x >= 0 && y >= 0 && (x as u32) < w && (y as u32) < h {
+                    img.put_pixel(x as u32, y as u32, colour);
+                }
+            }
+        }
+    };
+    for p in &map {
+        plot(&mut img, p, MAP, 0);
+    }
+    for p in &tru {
+        plot(&mut img, p, TRUTH, 1);
+    }
+    for p in &est {
+        plot(&mut img, p, ESTIMATE, 0);
+    }
+    img
+}
+
+/// Draws the map over the sketch through the final pose: a map point `p` is seen from the
+/// final map pose, placed at the final sketch pose and divided by its scale.
+fn draw_sketch_overlay(
+    out_dir: &Path,
+    cfg: &SketchConfig,
+    final_map_pose: Pose2,
+    sketch_pose: &SketchPose,
+) -> Result<()> {
+    let yaml = parse_map_yaml(&std::fs::read_to_string(out_dir.join("map.yaml"))?)?;
+    let (width, height, pixels) = parse_pgm(&std::fs::read(out_dir.join("map.pgm"))?)?;
+    let occupied = occupied_points(width, height, &pixels, yaml.resolution_m, &yaml.origin);
+    let sketch = image::open(&cfg.image)
+        .with_context(|| format!("reading {}", cfg.image.display()))?
+        .to_luma8();
+    // The sketches are white strokes on black or black on white: draw the strokes grey on
+    // white either way (strokes are the minority of pixels).
+    let bright = sketch.pixels().filter(|p| p.0[0] >= 128).count();
+    let strokes_bright = bright * 2 < sketch.pixels().len();
+    let mut img = RgbImage::from_fn(sketch.width(), sketch.height(), |x, y| {
+        let v = sketch.get_pixel(x, y).0[0] >= 128;
+        if v == strokes_bright {
+            Rgb([150, 150, 150])
+        } else {
+            Rgb([255, 255, 255])
+        }
+    });
+    let s = sketch_pose.meters_per_pixel;
+    let sketch_metric = Pose2::new(
+        sketch_pose.u_px * s,
+        -sketch_pose.v_px * s,
+        sketch_pose.heading_rad,
+    );
+    let to_sketch = sketch_metric.compose(&final_map_pose.inverse());
+    for p in &occupied {
+        let m = to_sketch.transform_point(p);
+        let (u, v) = ((m.x / s).floor(), (-m.y / s).floor());
+        if u >= 0.0 && v >= 0.0 && u < img.width() as f64 && v < img.height() as f64 {
+            img.put_pixel(u as u32, v as u32, SKETCH_MAP);
+        }
+    }
+    img.save(out_dir.join("sketch-overlay.png"))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn overlay_spans_the_content() {
+        let truth = vec![
+            StampedPose {
+                t_s: 0.0,
+                pose: Pose2::new(0.0, 0.0, 0.0),
+            },
+            StampedPose {
+                t_s: 1.0,
+                pose: Pose2::new(4.0, 1.0, 0.0),
+            },
+        ];
+        let img = draw_overlay(&[Point2::new(5.0, 3.0)], &truth, &truth, &Pose2::IDENTITY);
+        assert!((139..=141).contains(&img.width()), "{}", img.width());
+        assert!((99..=101).contains(&img.height()), "{}", img.height());
+    }
+}
