@@ -128,7 +128,7 @@ impl Default for MapperConfig {
             grid: GridConfig::default(),
             mcl: MclConfig::default(),
             icp: IcpConfig::default(),
-            sketch_icp_reference: IcpReference::Map,
+            sketch_icp_reference: IcpReference::PreviousScan,
             sketch_heading_gain: 0.05,
             sketch_heading_deadband_rad: 4f64.to_radians(),
             seed: 1,

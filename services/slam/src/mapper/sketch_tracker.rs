@@ -33,7 +33,7 @@ use std::sync::Arc;
 use super::SketchPrior;
 
 /// Map points farther than this from the robot are left out of the ICP reference, meters.
-const ICP_REFERENCE_RADIUS_M: f64 = 20.0;
+const ICP_REFERENCE_RADIUS_M: f64 = 50.0;
 
 /// The ICP reference is rebuilt after this many scans...
 const REFERENCE_REFRESH_SCANS: usize = 5;
@@ -42,6 +42,13 @@ const REFERENCE_REFRESH_M: f64 = 1.0;
 
 /// Spacing of the recovery's candidate observation points, meters at the guessed scale.
 const OBSERVATION_POINT_SPACING_M: f64 = 0.5;
+
+/// MCL score from which its estimate picks the sketch lines for eq. (5).
+const MIN_TRUSTED_SCORE: f64 = 0.6;
+
+/// Distinct sketch lines that must be matched before eq. (5) is used: one wall alone
+/// carries its own drawing error into the heading.
+const MIN_DISTINCT_LINES: usize = 2;
 
 /// Eq. (5) pairs farther than this from their median are left out of the mean, radians.
 const HEADING_INLIER_TOLERANCE_RAD: f64 = 0.1;
@@ -201,7 +208,10 @@ impl SketchTracker {
         // predicted map heading (the map frame's axes are the drawing's), so the correction
         // is the heading's error, not MCL's.
         let mut delta_rad = None;
-        if !observed.is_empty() && points.len() >= 10 {
+        // Only a sound localization on the drawing picks the right lines: a lost MCL
+        // pairs scan walls with the wrong sketch walls and would steer the heading.
+        let trusted = !failed && self.mcl.score() >= MIN_TRUSTED_SCORE;
+        if trusted && !observed.is_empty() && points.len() >= 10 {
             let scan_lines = extract_lines(points, &self.ransac, &mut self.rng);
             let lines: Vec<_> = observed.iter().map(|&i| self.sketch.lines[i]).collect();
             let view = SketchPose {
@@ -212,7 +222,13 @@ impl SketchTracker {
             let aggregate = HeadingAggregate::InlierMean {
                 tolerance_rad: HEADING_INLIER_TOLERANCE_RAD,
             };
-            delta_rad = heading_correction(&pairs, aggregate);
+            let distinct = pairs
+                .iter()
+                .map(|p| p.sketch_index)
+                .collect::<std::collections::BTreeSet<_>>();
+            if distinct.len() >= MIN_DISTINCT_LINES {
+                delta_rad = heading_correction(&pairs, aggregate);
+            }
         }
 
         // 4. Position (eq. 6) by point-to-line ICP. With the paper's hard correction
