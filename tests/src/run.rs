@@ -63,6 +63,15 @@ pub struct RunResult {
     pub scans_per_s: f64,
     /// Recoveries of MCL on the sketch.
     pub recoveries: u32,
+    /// Mean engine time per scan, milliseconds (in-process runs).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scan_ms_mean: Option<f64>,
+    /// 99th percentile of the engine time per scan, milliseconds (in-process runs).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scan_ms_p99: Option<f64>,
+    /// Simulated seconds mapped per second of engine time on one core (in-process runs).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub realtime_factor: Option<f64>,
     /// Where the artifacts are.
     pub out_dir: PathBuf,
 }
@@ -129,6 +138,7 @@ pub fn run_in_process(
     let total = max_scans.map_or(sim.scan_count(), |m| m.min(sim.scan_count()));
     let mut truth_poses = Vec::new();
     let mut mapping_s = 0.0;
+    let mut scan_ms: Vec<f64> = Vec::new();
     for step in sim {
         if let SensorEvent::Scan(scan) = &step.event {
             truth_poses.push(StampedPose {
@@ -138,8 +148,10 @@ pub fn run_in_process(
         }
         let started = Instant::now();
         mapper.on_event(&step.event);
-        mapping_s += started.elapsed().as_secs_f64();
+        let spent_s = started.elapsed().as_secs_f64();
+        mapping_s += spent_s;
         if matches!(step.event, SensorEvent::Scan(_)) {
+            scan_ms.push(spent_s * 1e3);
             progress(truth_poses.len() as u64, total);
             // Stop right after the last scan, as the simulator's --max-scans does.
             if truth_poses.len() as u64 >= total {
@@ -174,8 +186,23 @@ pub fn run_in_process(
     result.scans = health.scans_processed;
     result.wall_s = mapping_s;
     result.scans_per_s = health.scans_processed as f64 / mapping_s.max(1e-9);
+    scan_ms.sort_by(f64::total_cmp);
+    if !scan_ms.is_empty() {
+        result.scan_ms_mean = Some(scan_ms.iter().sum::<f64>() / scan_ms.len() as f64);
+        result.scan_ms_p99 = Some(scan_ms[(scan_ms.len() * 99 / 100).min(scan_ms.len() - 1)]);
+    }
+    let sim_s = truth_poses_span_s(&truth);
+    result.realtime_factor = Some(sim_s / mapping_s.max(1e-9));
     result.recoveries = health.recoveries;
     Ok(result)
+}
+
+/// Seconds between the first and the last truth pose.
+fn truth_poses_span_s(truth: &Truth) -> f64 {
+    match (truth.poses.first(), truth.poses.last()) {
+        (Some(a), Some(b)) => b.t_s - a.t_s,
+        _ => 0.0,
+    }
 }
 
 /// Wall pixels the noise-free sensor saw from the true poses.
@@ -240,6 +267,9 @@ pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
         wall_s: 0.0,
         scans_per_s: 0.0,
         recoveries: 0,
+        scan_ms_mean: None,
+        scan_ms_p99: None,
+        realtime_factor: None,
         out_dir: out_dir.to_path_buf(),
     })
 }
