@@ -8,9 +8,13 @@
 //! and by the benchmark relations ([`crate::relations`]). Artifacts: `map.pgm`,
 //! `map.yaml`, `trajectory.csv`, `truth.csv`, `overlay.png` (map and both trajectories on
 //! white) and, for sketch runs, `sketch-overlay.png` (the map drawn over the sketch
-//! through the final sketch pose and scale).
+//! through the final sketch pose and scale; in-process only).
+//!
+//! Both modes exist: [`run_dataset_in_process`] drives the replay and the engine in this
+//! process, [`run_dataset_real_process`] launches `slam-service` and `simulator replay`.
 
 use crate::metrics::{self, StampedPose};
+use crate::real_process::{StreamSource, map_through_processes};
 use crate::relations::{Relation, score_relations};
 use crate::run::{RunResult, occupied_points, read_trajectory_csv, sketch_prior};
 use anyhow::{Context, Result};
@@ -109,6 +113,32 @@ pub fn run_dataset_in_process(
     Ok(result)
 }
 
+/// Maps `dataset`'s log with `method` through the real processes (`slam-service` and
+/// `simulator replay`, lock-step) and scores the result as the in-process mode does; with
+/// `max_scans`, only the log's first scans. No sketch overlay: the service does not hand
+/// out the final sketch pose with the artifacts.
+pub fn run_dataset_real_process(
+    dataset: &Dataset,
+    method: Method,
+    sketch: Option<&SketchConfig>,
+    out_dir: &Path,
+    max_scans: Option<u64>,
+    progress: impl FnMut(u64, u64),
+) -> Result<RunResult> {
+    let source = StreamSource {
+        subcommand: "replay",
+        dir: &dataset.dir,
+        seed: dataset.seed,
+        scans: Replay::new(dataset)?.scan_count(),
+    };
+    let mapped = map_through_processes(&source, method, sketch, out_dir, max_scans, progress)?;
+    let truth = read_trajectory_csv(&out_dir.join("truth.csv"))?;
+    let relations = dataset_relations(dataset)?;
+    let mut result = score_dataset_artifacts(out_dir, &truth, &relations)?;
+    mapped.fill(&mut result, &dataset.name, method, sketch);
+    Ok(result)
+}
+
 /// Reads a dataset run's `map.pgm`, `map.yaml` and `trajectory.csv`, scores the trajectory
 /// against the reference poses (`truth`, ATE after SE(2) alignment) and the relations,
 /// and draws `overlay.png`. Map error and completeness are NaN (no true walls);
@@ -142,6 +172,9 @@ pub fn score_dataset_artifacts(
         wall_s: 0.0,
         scans_per_s: 0.0,
         recoveries: 0,
+        scan_ms_mean: None,
+        scan_ms_p99: None,
+        realtime_factor: None,
         out_dir: out_dir.to_path_buf(),
     })
 }
@@ -268,5 +301,66 @@ mod tests {
         let img = draw_overlay(&[Point2::new(5.0, 3.0)], &truth, &truth, &Pose2::IDENTITY);
         assert!((139..=141).contains(&img.width()), "{}", img.width());
         assert!((99..=101).contains(&img.height()), "{}", img.height());
+    }
+}
+
+/// Checks against the shared Intel data set (skipped with a note when it is absent).
+#[cfg(test)]
+mod intel_tests {
+    use super::*;
+    use crate::relations::read_relations;
+
+    fn intel() -> Option<Dataset> {
+        let dir = Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../shared/datasets/intel-lab"
+        ));
+        if !dir
+            .join(sketchslam_simulator::dataset::DATASET_FILE)
+            .is_file()
+        {
+            eprintln!("skipped: no shared dataset at {}", dir.display());
+            return None;
+        }
+        Some(Dataset::load(dir).unwrap())
+    }
+
+    /// The log's own poses, scored on the relations: the replay's clock and the relation
+    /// times line up when this is near GMapping's published 0.070 m.
+    #[test]
+    fn reference_and_noise_free_odometry_score_near_gmapping() {
+        let Some(mut dataset) = intel() else { return };
+        let relations = read_relations(
+            dataset.relations.as_ref().unwrap(),
+            dataset.relations_time_offset_s,
+        )
+        .unwrap();
+        assert_eq!(relations.len(), 2984);
+        let scans: Vec<StampedPose> = Replay::new(&dataset)
+            .unwrap()
+            .filter(|s| matches!(s.event, SensorEvent::Scan(_)))
+            .map(|s| StampedPose {
+                t_s: s.event.stamp_ns() as f64 * 1e-9,
+                pose: s.truth,
+            })
+            .collect();
+        let at_scans = score_relations(&scans, &relations).unwrap();
+        dataset.odometry.trans_noise = 0.0;
+        dataset.odometry.rot_noise = 0.0;
+        dataset.odometry.trans_bias = 0.0;
+        dataset.odometry.rot_bias = 0.0;
+        let odometry: Vec<StampedPose> = Replay::new(&dataset)
+            .unwrap()
+            .filter_map(|s| match s.event {
+                SensorEvent::Odometry(o) => Some(StampedPose {
+                    t_s: o.stamp_ns as f64 * 1e-9,
+                    pose: o.pose(),
+                }),
+                SensorEvent::Scan(_) => None,
+            })
+            .collect();
+        let dense = score_relations(&odometry, &relations).unwrap();
+        eprintln!("reference at the scans: {at_scans:?}\nnoise-free replay odometry: {dense:?}");
+        assert!(dense.trans_mean_m < 0.2, "{dense:?}");
     }
 }

@@ -44,8 +44,85 @@ pub fn run_real_process(
     sketch: Option<&SketchConfig>,
     out_dir: &Path,
     max_scans: Option<u64>,
-    mut progress: impl FnMut(u64, u64),
+    progress: impl FnMut(u64, u64),
 ) -> Result<RunResult> {
+    let source = StreamSource {
+        subcommand: "run",
+        dir: &scenario.dir,
+        seed: scenario.seed,
+        scans: Simulation::new(scenario)?.scan_count(),
+    };
+    let mapped = map_through_processes(&source, method, sketch, out_dir, max_scans, progress)?;
+    let world = World::load(&scenario.world.image, scenario.world.resolution_m)?;
+    let walls = WallGrid::from_image(
+        &image::open(&scenario.world.image)?.to_luma8(),
+        scenario.world.resolution_m,
+    );
+    let poses = read_trajectory_csv(&out_dir.join("truth.csv"))?;
+    let seen_walls = seen_wall_pixels(scenario, &world, &walls, &poses);
+    let truth = Truth {
+        poses,
+        seen_walls,
+        walls,
+    };
+    let mut result = score_artifacts(out_dir, &truth)?;
+    mapped.fill(&mut result, &scenario.name, method, sketch);
+    Ok(result)
+}
+
+/// What the `simulator` process streams: `simulator SUBCOMMAND DIR` (`run` a scenario or
+/// `replay` a dataset), the session seed and the stream's scan count.
+pub struct StreamSource<'a> {
+    /// `run` or `replay`.
+    pub subcommand: &'static str,
+    /// The scenario or dataset folder.
+    pub dir: &'a Path,
+    /// Seed of the session.
+    pub seed: u64,
+    /// Scans in the whole stream.
+    pub scans: u64,
+}
+
+/// What the service reported once a run through the processes was done.
+pub struct ProcessRun {
+    /// Scans the session processed.
+    pub scans: u64,
+    /// Wall seconds from the simulator's start to the last scan processed.
+    pub wall_s: f64,
+    /// Recoveries of MCL on the sketch.
+    pub recoveries: u32,
+}
+
+impl ProcessRun {
+    /// Writes the run's name and figures into a scored `result`.
+    pub fn fill(
+        &self,
+        result: &mut RunResult,
+        name: &str,
+        method: Method,
+        sketch: Option<&SketchConfig>,
+    ) {
+        result.scenario = name.to_string();
+        result.method = method.to_string();
+        result.sketch = sketch.map(|s| s.name.clone());
+        result.scans = self.scans;
+        result.wall_s = self.wall_s;
+        result.scans_per_s = self.scans as f64 / self.wall_s.max(1e-9);
+        result.recoveries = self.recoveries;
+    }
+}
+
+/// Runs `slam-service` and `simulator SUBCOMMAND` (lock-step) on `source`, waits until
+/// every published scan is processed and writes `map.pgm`, `map.yaml`, `trajectory.csv`
+/// (from the service) and `truth.csv` (from the simulator) into `out_dir`.
+pub fn map_through_processes(
+    source: &StreamSource<'_>,
+    method: Method,
+    sketch: Option<&SketchConfig>,
+    out_dir: &Path,
+    max_scans: Option<u64>,
+    mut progress: impl FnMut(u64, u64),
+) -> Result<ProcessRun> {
     let service_bin = binary("sketchslam-slam", "slam-service")?;
     let simulator_bin = binary("sketchslam-simulator", "simulator")?;
     std::fs::create_dir_all(out_dir)?;
@@ -86,7 +163,7 @@ pub fn run_real_process(
                     heading_deg: cfg.start_heading_rad.to_degrees(),
                 }),
                 meters_per_pixel: Some(cfg.meters_per_pixel),
-                seed: Some(scenario.seed),
+                seed: Some(source.seed),
             }
         }
         (Method::Sketch, None) => bail!("the sketch method needs a sketch"),
@@ -96,20 +173,19 @@ pub fn run_real_process(
             sketch_id: None,
             start: None,
             meters_per_pixel: None,
-            seed: Some(scenario.seed),
+            seed: Some(source.seed),
         },
     };
     let session = runtime.block_on(client.create_session(&request))?;
 
-    let all = Simulation::new(scenario)?.scan_count();
-    let total = max_scans.map_or(all, |m| m.min(all));
+    let total = max_scans.map_or(source.scans, |m| m.min(source.scans));
     let truth_path = out_dir.join("truth.csv");
     let started = Instant::now();
     let mut simulator = ChildGuard::spawn(
         "simulator",
         Command::new(&simulator_bin)
-            .arg("run")
-            .arg(&scenario.dir)
+            .arg(source.subcommand)
+            .arg(source.dir)
             .args([
                 "--robot",
                 ROBOT_ID,
@@ -169,28 +245,11 @@ pub fn run_real_process(
         runtime.block_on(client.trajectory_csv(&session.id))?,
     )?;
     service.terminate(Duration::from_secs(10));
-
-    let world = World::load(&scenario.world.image, scenario.world.resolution_m)?;
-    let walls = WallGrid::from_image(
-        &image::open(&scenario.world.image)?.to_luma8(),
-        scenario.world.resolution_m,
-    );
-    let poses = read_trajectory_csv(&truth_path)?;
-    let seen_walls = seen_wall_pixels(scenario, &world, &walls, &poses);
-    let truth = Truth {
-        poses,
-        seen_walls,
-        walls,
-    };
-    let mut result = score_artifacts(out_dir, &truth)?;
-    result.scenario = scenario.name.clone();
-    result.method = method.to_string();
-    result.sketch = sketch.map(|s| s.name.clone());
-    result.scans = stopped.scans_processed;
-    result.wall_s = wall_s;
-    result.scans_per_s = stopped.scans_processed as f64 / wall_s.max(1e-9);
-    result.recoveries = stopped.recoveries as u32;
-    Ok(result)
+    Ok(ProcessRun {
+        scans: stopped.scans_processed,
+        wall_s,
+        recoveries: stopped.recoveries as u32,
+    })
 }
 
 async fn wait_healthy(client: &SketchslamClient, service: &mut ChildGuard) -> Result<()> {

@@ -12,7 +12,7 @@
 //! replayed (with the odometry drift the replay adds), the runs are scored by the ATE
 //! against the log's corrected poses and by the dataset's relations (no map error or
 //! completeness: no true walls), and the published relation errors are printed beside.
-//! Dataset runs are in-process only for now.
+//! Both modes work on datasets (`simulator replay` in the real-process mode).
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
@@ -20,7 +20,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use sketchslam_simulator::dataset::{DATASET_FILE, Dataset};
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
 use sketchslam_slam::mapper::Method;
-use sketchslam_tests::dataset_run::run_dataset_in_process;
+use sketchslam_tests::dataset_run::{run_dataset_in_process, run_dataset_real_process};
 use sketchslam_tests::real_process::run_real_process;
 use sketchslam_tests::run::{RunResult, run_in_process, run_name};
 use std::path::PathBuf;
@@ -63,13 +63,6 @@ fn main() -> Result<()> {
     let mut datasets = Vec::new();
     for dir in &args.scenarios {
         let target = if dir.join(DATASET_FILE).is_file() {
-            if !args.in_process {
-                bail!(
-                    "{}: dataset folders run with --in-process only (no replay through the \
-                     real processes yet)",
-                    dir.display()
-                );
-            }
             let dataset =
                 Dataset::load(dir).with_context(|| format!("loading {}", dir.display()))?;
             datasets.push(dataset.clone());
@@ -129,14 +122,25 @@ fn main() -> Result<()> {
         };
         let scenario = match target {
             Target::Dataset(dataset) => {
-                let result = run_dataset_in_process(
-                    dataset,
-                    *method,
-                    sketch_cfg,
-                    &out_dir,
-                    args.max_scans,
-                    progress,
-                );
+                let result = if args.in_process {
+                    run_dataset_in_process(
+                        dataset,
+                        *method,
+                        sketch_cfg,
+                        &out_dir,
+                        args.max_scans,
+                        progress,
+                    )
+                } else {
+                    run_dataset_real_process(
+                        dataset,
+                        *method,
+                        sketch_cfg,
+                        &out_dir,
+                        args.max_scans,
+                        progress,
+                    )
+                };
                 bar.finish_and_clear();
                 match result {
                     Ok(r) => results.push(r),
