@@ -72,11 +72,14 @@ pub fn run_dataset_in_process(
     let total = max_scans.map_or(replay.scan_count(), |m| m.min(replay.scan_count()));
     let mut truth_poses = Vec::new();
     let mut mapping_s = 0.0;
+    let mut scan_ms: Vec<f64> = Vec::new();
     for step in replay {
         let started = Instant::now();
         mapper.on_event(&step.event);
-        mapping_s += started.elapsed().as_secs_f64();
+        let spent_s = started.elapsed().as_secs_f64();
+        mapping_s += spent_s;
         if let SensorEvent::Scan(scan) = &step.event {
+            scan_ms.push(spent_s * 1e3);
             truth_poses.push(StampedPose {
                 t_s: scan.header.stamp_ns as f64 * 1e-9,
                 pose: step.truth,
@@ -110,6 +113,14 @@ pub fn run_dataset_in_process(
     result.wall_s = mapping_s;
     result.scans_per_s = health.scans_processed as f64 / mapping_s.max(1e-9);
     result.recoveries = health.recoveries;
+    scan_ms.sort_by(f64::total_cmp);
+    if !scan_ms.is_empty() {
+        result.scan_ms_mean = Some(scan_ms.iter().sum::<f64>() / scan_ms.len() as f64);
+        result.scan_ms_p99 = Some(scan_ms[(scan_ms.len() * 99 / 100).min(scan_ms.len() - 1)]);
+    }
+    if let (Some(first), Some(last)) = (truth_poses.first(), truth_poses.last()) {
+        result.realtime_factor = Some((last.t_s - first.t_s) / mapping_s.max(1e-9));
+    }
     Ok(result)
 }
 
