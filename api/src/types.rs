@@ -97,7 +97,8 @@ pub struct SketchList {
 pub enum MappingMethod {
     /// The hand-drawn-map method (needs `sketch_id`, `start`, `meters_per_pixel`).
     Sketch,
-    /// Baseline: scan-to-map ICP without the sketch.
+    /// Baseline: frame-to-frame point-to-line ICP seeded by odometry, without the sketch
+    /// (the paper's "conventional ICP-SLAM").
     Icp,
     /// Baseline: the map from dead reckoning alone.
     Odometry,
