@@ -259,7 +259,7 @@ fn print_relations(results: &[RunResult]) {
 
 fn print_table(results: &[RunResult]) {
     println!(
-        "{:<12} {:<9} {:<10} {:>9} {:>11} {:>8} {:>6} {:>8} {:>8} {:>5}",
+        "{:<12} {:<9} {:<8} {:>7} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>5}",
         "scenario",
         "method",
         "sketch",
@@ -269,31 +269,39 @@ fn print_table(results: &[RunResult]) {
         "scans",
         "wall s",
         "scans/s",
+        "ms/scan",
+        "p99 ms",
+        "RTF",
         "rec."
     );
+    let opt = |v: Option<f64>, prec: usize| v.map_or("-".to_string(), |v| format!("{v:.prec$}"));
     for r in results {
         println!(
-            "{:<12} {:<9} {:<10} {:>9.3} {} {} {:>6} {:>8.1} {:>8.0} {:>5}",
+            "{:<12} {:<9} {:<8} {:>7.3} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5}",
             r.scenario,
             r.method,
             r.sketch.as_deref().unwrap_or("-"),
             r.ate_rmse_m,
-            num(r.map_error_m, 11, 3),
-            num(r.completeness, 8, 3),
+            num(r.map_error_m, 9, 3),
+            num(r.completeness, 7, 3),
             r.scans,
             r.wall_s,
             r.scans_per_s,
+            opt(r.scan_ms_mean, 2),
+            opt(r.scan_ms_p99, 2),
+            opt(r.realtime_factor, 1),
             r.recoveries
         );
     }
     if let Some(r) = results.first() {
+        let root = r
+            .out_dir
+            .parent()
+            .and_then(|p| p.parent())
+            .unwrap_or(&r.out_dir);
         println!(
-            "artifacts under {}",
-            r.out_dir
-                .parent()
-                .and_then(|p| p.parent())
-                .unwrap_or(&r.out_dir)
-                .display()
+            "maps (map.pgm + map.yaml) and overlays (overlay.png) under {}",
+            root.display()
         );
     }
 }
