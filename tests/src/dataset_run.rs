@@ -8,7 +8,8 @@
 //! and by the benchmark relations ([`crate::relations`]). Artifacts: `map.pgm`,
 //! `map.yaml`, `trajectory.csv`, `truth.csv`, `overlay.png` (map and both trajectories on
 //! white) and, for sketch runs, `sketch-overlay.png` (the map drawn over the sketch
-//! through the final sketch pose and scale; in-process only).
+//! through the final sketch pose and scale) and `sketch-pose.csv` (that pose; both
+//! in-process only).
 //!
 //! Both modes exist: [`run_dataset_in_process`] drives the replay and the engine in this
 //! process, [`run_dataset_real_process`] launches `slam-service` and `simulator replay`.
@@ -104,6 +105,17 @@ pub fn run_dataset_in_process(
     if let (Some(cfg), Some(sketch_pose)) = (sketch, mapper.pose().sketch) {
         draw_sketch_overlay(out_dir, cfg, mapper.pose().map, &sketch_pose)
             .context("drawing sketch-overlay.png")?;
+        // The final pose on the drawing, to compare with the start marked on it.
+        std::fs::write(
+            out_dir.join("sketch-pose.csv"),
+            format!(
+                "u_px,v_px,heading_rad,meters_per_pixel\n{},{},{},{}\n",
+                sketch_pose.u_px,
+                sketch_pose.v_px,
+                sketch_pose.heading_rad,
+                sketch_pose.meters_per_pixel
+            ),
+        )?;
     }
     let health = mapper.health();
     result.scenario = dataset.name.clone();
