@@ -12,6 +12,8 @@
 
 mod common;
 
+use std::time::Duration;
+
 use anyhow::{Context, Result, ensure};
 use common::{TempDir, dump_log, paper_env1_sketch_a, start_service};
 use reqwest::{Client, Method, RequestBuilder, StatusCode};
@@ -58,6 +60,39 @@ impl Api {
         );
         self.seen
             .push((what.to_string(), status.as_u16(), code.to_string()));
+        Ok(())
+    }
+
+    /// Writes `head` (a request without body) on a raw connection and checks the answer.
+    async fn raw_expect(&mut self, what: &str, head: &str, status: u16) -> Result<()> {
+        use tokio::io::{AsyncReadExt, AsyncWriteExt};
+        let addr = self.base.trim_start_matches("http://").to_string();
+        let answer = tokio::time::timeout(Duration::from_secs(10), async {
+            let mut sock = tokio::net::TcpStream::connect(&addr).await?;
+            sock.write_all(head.as_bytes()).await?;
+            let mut buf = Vec::new();
+            sock.read_to_end(&mut buf).await?;
+            anyhow::Ok(String::from_utf8_lossy(&buf).into_owned())
+        })
+        .await
+        .with_context(|| format!("{what}: no answer within 10 s"))??;
+        let status_line = answer.lines().next().unwrap_or_default();
+        ensure!(
+            status_line.split_whitespace().nth(1) == Some(&status.to_string()),
+            "{what}: {status_line:?} (expected {status})"
+        );
+        let body = answer.split_once("\r\n\r\n").map_or("", |(_, b)| b);
+        let body: Value = serde_json::from_str(body.trim())
+            .with_context(|| format!("{what}: the error body is not JSON: {body:?}"))?;
+        let code = body["error"]["code"].as_str().unwrap_or_default();
+        ensure!(
+            !code.is_empty()
+                && body["error"]["message"]
+                    .as_str()
+                    .is_some_and(|m| !m.is_empty()),
+            "{what}: the error body lacks code/message: {body}"
+        );
+        self.seen.push((what.to_string(), status, code.to_string()));
         Ok(())
     }
 
@@ -194,11 +229,30 @@ async fn run(data: &std::path::Path) -> Result<()> {
         &[400, 422],
     )
     .await?;
+    // Over the limit. The service answers 413 from the Content-Length alone and closes the
+    // connection without reading the body, so a client still writing a large body may see
+    // a reset instead of the answer (an HTTP/1.1 race, not a service bug): send the head
+    // only, over a raw socket, and read the answer.
+    api.raw_expect(
+        "body over the limit (Content-Length)",
+        &format!(
+            "POST /v1/sketches HTTP/1.1\r\nHost: localhost\r\nAuthorization: Bearer {TOKEN}\r\n\
+             Content-Type: image/png\r\nContent-Length: {}\r\nConnection: close\r\n\r\n",
+            MAX_BODY * 2
+        ),
+        413,
+    )
+    .await?;
+    // Just over the limit, whole body sent: small enough for the socket buffers.
     let mut big = png_of(&image::GrayImage::from_pixel(8, 8, image::Luma([255])))?;
-    big.resize(MAX_BODY * 2, 0);
+    big.resize(MAX_BODY + 1, 0);
+    // On a connection of its own: the service closes the connection after an early 413
+    // without saying so (see `keep_alive_connection_survives_a_413`).
+    let once = Client::builder().pool_max_idle_per_host(0).build()?;
     api.expect(
-        "body over the limit",
-        api.req(Method::POST, "/v1/sketches")
+        "body one byte over the limit",
+        once.post(format!("{}/v1/sketches", api.base))
+            .bearer_auth(TOKEN)
             .header("content-type", "image/png")
             .body(big),
         &[413],
@@ -412,5 +466,50 @@ async fn run(data: &std::path::Path) -> Result<()> {
     ensure!(still["state"] == "waiting_for_data", "{still}");
     let health = api.anon(Method::GET, "/healthz").send().await?;
     ensure!(health.status() == StatusCode::OK);
+    Ok(())
+}
+
+/// BUG (documented, not fixed here): the service answers an over-limit body with 413 before
+/// reading it, then closes the keep-alive connection without a `Connection: close` header
+/// (curl: "Connection #0 to host left intact"). A pooling client that sends its next request
+/// on that connection fails with "connection closed before message completed" (reqwest
+/// `SendRequest`) — seen in about 1 run of 5 of the malformed-request test before it moved
+/// the oversized upload to a connection of its own.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+#[ignore = "bug: after an early 413 the service closes the keep-alive connection without Connection: close; the next pooled request fails (connection closed before message completed)"]
+async fn keep_alive_connection_survives_a_413() -> Result<()> {
+    let dir = TempDir::new("httperr413")?;
+    let data = dir.0.join("data");
+    let max_body = MAX_BODY.to_string();
+    let service = start_service(
+        &data,
+        &unique_prefix("http413"),
+        &["--max-body-bytes", &max_body],
+        &[],
+    )
+    .await?;
+    // One connection, reused.
+    let http = Client::builder().pool_max_idle_per_host(1).build()?;
+    for round in 0..20 {
+        let resp = http
+            .post(format!("{}/v1/sketches", service.base))
+            .header("content-type", "image/png")
+            .body(vec![0u8; MAX_BODY + 1])
+            .send()
+            .await
+            .with_context(|| format!("round {round}: the oversized upload"))?;
+        ensure!(resp.status() == StatusCode::PAYLOAD_TOO_LARGE);
+        let _ = resp.bytes().await;
+        let next = http
+            .get(format!("{}/v1/sketches", service.base))
+            .send()
+            .await
+            .with_context(|| format!("round {round}: the request after a 413"))?;
+        ensure!(
+            next.status().is_success(),
+            "round {round}: {}",
+            next.status()
+        );
+    }
     Ok(())
 }
