@@ -69,6 +69,23 @@ pub struct Scan {
 }
 
 impl Scan {
+    /// A scan of `ranges_m.len()` beams spread evenly over `fov_rad` centred on the
+    /// heading (first beam at `−fov/2`, last at `+fov/2`), sequence and stamp 0.
+    pub fn centred(fov_rad: f64, range_min_m: f32, range_max_m: f32, ranges_m: Vec<f32>) -> Scan {
+        let n = ranges_m.len();
+        Scan {
+            header: ScanHeader {
+                angle_min_rad: (-fov_rad / 2.0) as f32,
+                angle_increment_rad: (fov_rad / (n.max(2) - 1) as f64) as f32,
+                range_min_m,
+                range_max_m,
+                beam_count: n as u32,
+                ..Default::default()
+            },
+            ranges_m,
+        }
+    }
+
     /// Angle of beam `i` in the robot frame, radians.
     pub fn beam_angle_rad(&self, i: usize) -> f64 {
         self.header.angle_min_rad as f64 + i as f64 * self.header.angle_increment_rad as f64

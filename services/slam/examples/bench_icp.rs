@@ -86,17 +86,7 @@ fn simulate(walls: &[Seg], pose: &Pose2, rng: &mut ChaCha8Rng) -> Scan {
             }
         })
         .collect();
-    Scan {
-        header: ScanHeader {
-            angle_min_rad: (-fov / 2.0) as f32,
-            angle_increment_rad: inc as f32,
-            range_min_m: 0.05,
-            range_max_m: 30.0,
-            beam_count: beams as u32,
-            ..Default::default()
-        },
-        ranges_m,
-    }
+    Scan::centred(fov, 0.05, 30.0, ranges_m)
 }
 
 /// Mean and 95th percentile, microseconds.

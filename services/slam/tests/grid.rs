@@ -32,17 +32,7 @@ fn room_scan(pose: &Pose2) -> Scan {
     let ranges_m = (0..beams)
         .map(|i| room_range(pose, pose.heading_rad + angle_min + i as f64 * inc) as f32)
         .collect();
-    Scan {
-        header: ScanHeader {
-            angle_min_rad: angle_min as f32,
-            angle_increment_rad: inc as f32,
-            range_min_m: 0.05,
-            range_max_m: 30.0,
-            beam_count: beams as u32,
-            ..Default::default()
-        },
-        ranges_m,
-    }
+    Scan::centred(fov, 0.05, 30.0, ranges_m)
 }
 
 fn room_grid() -> OccupancyGrid {

@@ -3,7 +3,7 @@
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use sketchslam_shared::{Point2, Pose2, Scan, ScanHeader};
+use sketchslam_shared::{Point2, Pose2, Scan};
 use sketchslam_slam::grid::{GridConfig, OccupancyGrid};
 use sketchslam_slam::icp::{Icp, IcpConfig, IcpMode, reference_from_grid};
 
@@ -69,17 +69,7 @@ fn simulate(pose: &Pose2, noise_m: f64, rng: &mut ChaCha8Rng) -> Scan {
             }
         })
         .collect();
-    Scan {
-        header: ScanHeader {
-            angle_min_rad: (-fov / 2.0) as f32,
-            angle_increment_rad: inc as f32,
-            range_min_m: 0.05,
-            range_max_m: 30.0,
-            beam_count: beams as u32,
-            ..Default::default()
-        },
-        ranges_m,
-    }
+    Scan::centred(fov, 0.05, 30.0, ranges_m)
 }
 
 fn points(scan: &Scan) -> Vec<Point2> {

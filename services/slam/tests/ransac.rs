@@ -4,7 +4,7 @@
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use sketchslam_shared::{Point2, Pose2, Scan, ScanHeader};
+use sketchslam_shared::{Point2, Pose2, Scan};
 use sketchslam_slam::line_match::{
     HeadingAggregate, MatchConfig, heading_correction, match_lines, sketch_line_in_robot_frame,
     wrap_half_pi,
@@ -58,17 +58,7 @@ fn simulate(walls: &[Seg], pose: &Pose2, noise_m: f64, rng: &mut ChaCha8Rng) -> 
             }
         })
         .collect();
-    Scan {
-        header: ScanHeader {
-            angle_min_rad: (-fov / 2.0) as f32,
-            angle_increment_rad: inc as f32,
-            range_min_m: 0.05,
-            range_max_m: 30.0,
-            beam_count: beams as u32,
-            ..Default::default()
-        },
-        ranges_m,
-    }
+    Scan::centred(fov, 0.05, 30.0, ranges_m)
 }
 
 /// Undirected angle of a world wall seen from `pose`, in [0, π).
