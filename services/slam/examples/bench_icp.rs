@@ -9,7 +9,7 @@
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use sketchslam_shared::{Point2, Pose2, Scan, ScanHeader};
+use sketchslam_shared::{Point2, Pose2, Scan};
 use sketchslam_slam::grid::{GridConfig, OccupancyGrid};
 use sketchslam_slam::icp::{Icp, IcpConfig, IcpMode, reference_from_grid};
 use sketchslam_slam::ransac::{RansacConfig, extract_scan_lines};
