@@ -49,7 +49,10 @@ fn in_process_and_real_processes_build_the_same_map() -> anyhow::Result<()> {
     assert_eq!(a.map_error_m, b.map_error_m);
     // Generous bounds on the first 20 m of the route (completeness counts the walls the
     // sensor saw in those scans only).
-    eprintln!("map error {:.3} m, completeness {:.3}", a.map_error_m, a.completeness);
+    eprintln!(
+        "map error {:.3} m, completeness {:.3}",
+        a.map_error_m, a.completeness
+    );
     assert!(a.map_error_m <= 0.25, "map error {}", a.map_error_m);
     assert!(a.completeness >= 0.8, "completeness {}", a.completeness);
     let _ = std::fs::remove_dir_all(&out);
