@@ -259,8 +259,12 @@ pub struct SessionInfo {
     pub state: SessionState,
     /// Scans fused so far.
     pub scans_processed: u64,
-    /// Scans (and odometry samples) the intake knows were lost: publisher gaps, restarts.
+    /// Scans the intake knows were lost: gaps in the publisher's sequence numbers.
     pub scans_lost: u64,
+    /// Times the robot's publisher came back with its sequence restarted (a driver or
+    /// simulator restart): a gap in the data that is not counted as lost scans.
+    #[serde(default)]
+    pub publisher_restarts: u64,
     /// Localization health in [0, 1] (VDA 5050 `localizationScore`).
     pub localization_score: f64,
     /// How often localization on the sketch recovered from a breakdown.

@@ -10,8 +10,8 @@
 //!   stays `Mapping`, and its `scans_processed` keeps growing past the kill point by every
 //!   scan the new publisher sends (lock-step: nothing is lost);
 //! - the restart is not counted as lost scans (`scans_lost` stays 0: a sequence that goes
-//!   backwards is a restart, not a gap) and is visible in the service's log as a gap whose
-//!   received sequence is below the expected one (`SessionInfo` has no restart counter);
+//!   backwards is a restart, not a gap); it is counted in `publisher_restarts` and visible in
+//!   the service's log as a gap whose received sequence is below the expected one;
 //! - the map stays accurate: scored against the restarted run's truth (the trajectory after
 //!   the restart aligned by stamp), the map's error stays within 0.3 m.
 
@@ -133,6 +133,11 @@ async fn run(dir: &TempDir, data: &std::path::Path, strict_trajectory: bool) -> 
         after.scans_lost == 0,
         "a restart counted as {} lost scans",
         after.scans_lost
+    );
+    ensure!(
+        after.publisher_restarts >= 1,
+        "the publisher restart is not counted ({} restarts)",
+        after.publisher_restarts
     );
     let log = std::fs::read_to_string(&service.log)?;
     ensure!(

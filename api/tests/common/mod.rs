@@ -148,6 +148,7 @@ impl Backend for Fake {
             state: SessionState::WaitingForData,
             scans_processed: 0,
             scans_lost: 0,
+            publisher_restarts: 0,
             localization_score: 0.0,
             recoveries: 0,
             estimated_meters_per_pixel: r.meters_per_pixel,

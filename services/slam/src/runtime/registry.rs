@@ -296,6 +296,7 @@ impl Registry {
             state: SessionState::WaitingForData,
             scans_processed: 0,
             scans_lost: 0,
+            publisher_restarts: 0,
             localization_score: 0.0,
             recoveries: 0,
             estimated_meters_per_pixel: request.meters_per_pixel,

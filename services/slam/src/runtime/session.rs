@@ -325,6 +325,7 @@ fn run_mapper(
                 {
                     let mut info = lock(&shared.info);
                     info.scans_lost = stats.scans_lost;
+                    info.publisher_restarts = stats.sequence_restarts;
                 }
                 *lock(&shared.odometry_lost) = stats.odometry_lost;
                 shared.publish_status();
