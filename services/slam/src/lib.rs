@@ -11,17 +11,21 @@
 //!
 //! Nothing here does I/O, spawns threads or reads clocks: random draws take an `Rng`.
 
+pub mod correlative;
 pub mod error;
 pub mod grid;
 pub mod grid_export;
 pub mod icp;
 pub mod line_match;
 pub mod line_observation;
+pub mod loop_closure;
 pub mod mapper;
 pub mod mcl;
+pub mod pose_graph;
 pub mod ransac;
 pub mod recovery;
 pub mod runtime;
 pub mod sketch;
+pub mod wall_directions;
 
 pub use error::EngineError;

@@ -14,6 +14,11 @@
 //! Between scans the pose is carried forward by the odometry increment, so the trajectory
 //! holds a pose at every odometry message, not only at scans.
 //!
+//! The `sketch` method also closes loops ([`crate::loop_closure`]): every trajectory pose
+//! and every fused scan is held relative to a keyframe, so when a loop closes and the
+//! keyframes move, the trajectory follows them and the grid is rebuilt from the logged
+//! scans at their corrected poses (lazily, when the grid is next asked for).
+//!
 //! Pure: no threads, clocks or I/O; its randomness comes from a seeded ChaCha stream.
 
 mod sketch_tracker;
@@ -21,6 +26,7 @@ mod sketch_tracker;
 use crate::EngineError;
 use crate::grid::{GridConfig, OccupancyGrid};
 use crate::icp::{Icp, IcpConfig, IcpMode};
+use crate::loop_closure::{LoopCloser, LoopClosureConfig};
 use crate::mcl::MclConfig;
 use crate::sketch::{Sketch, SketchPose};
 use serde::{Deserialize, Serialize};
@@ -118,6 +124,9 @@ pub struct MapperConfig {
     /// drawing's own angular error and ignored, radians (a person draws a wall's direction
     /// within a few degrees).
     pub sketch_heading_deadband_rad: f64,
+    /// Loop closure of the `sketch` method; `None` keeps the paper's front end alone.
+    /// The baselines never close loops (`icp` is the paper's frame-to-frame ICP-SLAM).
+    pub loop_closure: Option<LoopClosureConfig>,
     /// Seed of every random draw of the session.
     pub seed: u64,
 }
@@ -131,6 +140,7 @@ impl Default for MapperConfig {
             sketch_icp_reference: IcpReference::PreviousScan,
             sketch_heading_gain: 0.05,
             sketch_heading_deadband_rad: 4f64.to_radians(),
+            loop_closure: Some(LoopClosureConfig::default()),
             seed: 1,
         }
     }
@@ -171,6 +181,9 @@ pub struct Health {
     pub localization_score: f64,
     /// Estimated scale of the drawing, meters per pixel (`sketch` only).
     pub meters_per_pixel: Option<f64>,
+    /// Loops closed so far (`sketch` with loop closure only).
+    #[serde(default)]
+    pub loop_closures: u32,
     /// True once the first odometry message has arrived.
     pub initialized: bool,
 }
@@ -203,6 +216,22 @@ pub struct Mapper {
     stamp_ns: u64,
     trajectory: Vec<TrajectoryPoint>,
     health: Health,
+    /// The loop-closure back end (`sketch` sessions with it enabled).
+    closer: Option<LoopCloser>,
+    /// Per trajectory point: its keyframe and its pose relative to it (`None` before the
+    /// first keyframe, or without loop closure).
+    trajectory_anchors: Vec<Option<Anchor>>,
+    /// Every fused scan with its keyframe anchor, to rebuild the grid after a correction.
+    scan_log: Vec<(Anchor, Scan)>,
+    /// True when keyframes moved since the grid was built.
+    grid_stale: bool,
+}
+
+/// A pose held relative to a keyframe of the loop-closure back end.
+#[derive(Debug, Clone, Copy)]
+struct Anchor {
+    keyframe: usize,
+    relative: Pose2,
 }
 
 impl Mapper {
@@ -233,7 +262,15 @@ impl Mapper {
                 )
             }
         };
+        let closer = match method {
+            Method::Sketch => config.loop_closure.clone().map(LoopCloser::new),
+            _ => None,
+        };
         Ok(Mapper {
+            closer,
+            trajectory_anchors: Vec::new(),
+            scan_log: Vec::new(),
+            grid_stale: false,
             method,
             grid: OccupancyGrid::new(config.grid),
             config,
@@ -339,12 +376,68 @@ impl Mapper {
             self.health.scans_skipped += 1;
             return;
         }
+        let corrected = self.close_loops(corrected, &points);
         self.map_at_fix = corrected;
         self.odom_at_fix = odom_now;
         self.stamp_ns = self.stamp_ns.max(scan.header.stamp_ns);
-        self.grid.insert_scan(&corrected, scan);
+        if !self.grid_stale {
+            // (A stale grid is rebuilt from the log, this scan included.)
+            self.grid.insert_scan(&corrected, scan);
+        }
+        if let Some(anchor) = self.anchor(&corrected) {
+            self.scan_log.push((anchor, scan.clone()));
+        }
         self.health.scans_processed += 1;
         self.push_trajectory(scan.header.stamp_ns, corrected);
+    }
+
+    /// Hands a keyframe to the loop-closure back end when one is due; when a loop closes,
+    /// re-anchors the trajectory on the optimized keyframes and returns the scan's
+    /// corrected pose.
+    fn close_loops(&mut self, pose: Pose2, points: &[Point2]) -> Pose2 {
+        if !self
+            .closer
+            .as_ref()
+            .is_some_and(|c| c.wants_keyframe(&pose))
+        {
+            return pose;
+        }
+        let Some(closer) = &mut self.closer else {
+            return pose;
+        };
+        let heading_prior = match &mut self.engine {
+            Engine::Sketch(tracker) if closer.uses_heading_priors() => {
+                tracker.heading_prior(points, &pose)
+            }
+            _ => None,
+        };
+        let outcome = closer.add_keyframe(pose, points, heading_prior);
+        self.health.loop_closures = closer.closures().len() as u32;
+        if !outcome.optimized {
+            return pose;
+        }
+        let keyframes = closer.poses();
+        let corrected = keyframes[outcome.index];
+        for (point, anchor) in self.trajectory.iter_mut().zip(&self.trajectory_anchors) {
+            if let Some(a) = anchor {
+                point.pose = keyframes[a.keyframe].compose(&a.relative);
+            }
+        }
+        self.grid_stale = true;
+        if let Engine::Sketch(tracker) = &mut self.engine {
+            tracker.on_map_corrected(points, corrected);
+        }
+        corrected
+    }
+
+    /// `pose` relative to the newest keyframe, when there is a back end with keyframes.
+    fn anchor(&self, pose: &Pose2) -> Option<Anchor> {
+        let keyframes = self.closer.as_ref()?.poses();
+        let keyframe = keyframes.len().checked_sub(1)?;
+        Some(Anchor {
+            keyframe,
+            relative: keyframes[keyframe].between(pose),
+        })
     }
 
     /// The map pose now: the last corrected pose carried forward by odometry.
@@ -357,9 +450,13 @@ impl Mapper {
 
     fn push_trajectory(&mut self, stamp_ns: u64, pose: Pose2) {
         // One pose per stamp: a scan's correction replaces the odometry pose of its stamp.
+        let anchor = self.anchor(&pose);
         if let Some(last) = self.trajectory.last_mut() {
             if last.stamp_ns == stamp_ns {
                 last.pose = pose;
+                if let Some(a) = self.trajectory_anchors.last_mut() {
+                    *a = anchor;
+                }
                 return;
             }
             if last.stamp_ns > stamp_ns {
@@ -367,6 +464,7 @@ impl Mapper {
             }
         }
         self.trajectory.push(TrajectoryPoint { stamp_ns, pose });
+        self.trajectory_anchors.push(anchor);
     }
 
     /// The current pose estimate.
@@ -391,8 +489,20 @@ impl Mapper {
         &self.trajectory
     }
 
-    /// The map built so far.
-    pub fn grid(&self) -> &OccupancyGrid {
+    /// The map built so far; after a loop closure it is first rebuilt from the logged
+    /// scans at their corrected poses (O(scans · beams), once per correction).
+    pub fn grid(&mut self) -> &OccupancyGrid {
+        if self.grid_stale {
+            if let Some(closer) = &self.closer {
+                let keyframes = closer.poses();
+                let mut grid = OccupancyGrid::new(self.config.grid);
+                for (anchor, scan) in &self.scan_log {
+                    grid.insert_scan(&keyframes[anchor.keyframe].compose(&anchor.relative), scan);
+                }
+                self.grid = grid;
+            }
+            self.grid_stale = false;
+        }
         &self.grid
     }
 

@@ -25,6 +25,7 @@ use crate::recovery::{
 };
 use crate::sketch::raycast::SketchRaycaster;
 use crate::sketch::{Sketch, SketchPose};
+use crate::wall_directions::{DirectionMatchConfig, dominant_directions, heading_to_directions};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use sketchslam_shared::{Point2, Pose2, Scan};
@@ -52,6 +53,9 @@ const MIN_DISTINCT_LINES: usize = 2;
 
 /// Eq. (5) pairs farther than this from their median are left out of the mean, radians.
 const HEADING_INLIER_TOLERANCE_RAD: f64 = 0.1;
+
+/// A direction holding less than this share of the drawing's line length is not dominant.
+const MIN_DIRECTION_SHARE: f64 = 0.1;
 
 /// What one scan did to the sketch method's state.
 pub(super) struct TrackOutput {
@@ -94,6 +98,8 @@ pub(super) struct SketchTracker {
     heading_deadband_rad: f64,
     /// The previous scan's points in the map frame.
     previous_points: Vec<Point2>,
+    /// The drawing's dominant wall directions in the map frame, radians in [0, π).
+    directions: Vec<f64>,
 }
 
 impl SketchTracker {
@@ -126,7 +132,6 @@ impl SketchTracker {
         let raycaster = SketchRaycaster::new(&prior.sketch);
         let mcl = SketchMcl::new(config.mcl.clone(), start, StartSpread::default(), &mut rng)?;
         Ok(Self {
-            sketch: prior.sketch,
             raycaster,
             mcl,
             detector: FailureDetector::new(FailureConfig::default()),
@@ -143,6 +148,8 @@ impl SketchTracker {
             heading_gain: config.sketch_heading_gain.clamp(0.0, 1.0),
             heading_deadband_rad: config.sketch_heading_deadband_rad.max(0.0),
             previous_points: Vec::new(),
+            directions: dominant_directions(&prior.sketch.lines, MIN_DIRECTION_SHARE),
+            sketch: prior.sketch,
         })
     }
 
@@ -271,6 +278,25 @@ impl SketchTracker {
             lines_observed: observed.len(),
             localization_score: self.mcl.score(),
         }
+    }
+
+    /// The map heading the drawing's dominant wall directions give a keyframe whose scan
+    /// `points` (robot frame) were taken at `pose`; see [`crate::wall_directions`].
+    pub(super) fn heading_prior(&mut self, points: &[Point2], pose: &Pose2) -> Option<f64> {
+        if self.directions.is_empty() || points.len() < 10 {
+            return None;
+        }
+        let lines = extract_lines(points, &self.ransac, &mut self.rng);
+        let config = DirectionMatchConfig::default();
+        heading_to_directions(&lines, pose.heading_rad, &self.directions, &config)
+            .map(|correction| pose.heading_rad + correction)
+    }
+
+    /// The map frame was corrected (a loop closed): the scan just fused now lies at
+    /// `map_pose`, and the ICP reference, built on the old poses, is dropped.
+    pub(super) fn on_map_corrected(&mut self, points: &[Point2], map_pose: Pose2) {
+        self.previous_points = points.iter().map(|p| map_pose.transform_point(p)).collect();
+        self.reference = None;
     }
 
     /// Point-to-line ICP of the scan against the reference (map frame), from `guess`;

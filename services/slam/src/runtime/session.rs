@@ -212,7 +212,7 @@ impl Session {
             }
         }
         let (grid, points, pose) = {
-            let m = lock(&self.mapper);
+            let mut m = lock(&self.mapper);
             (
                 m.grid().clone(),
                 m.trajectory().to_vec(),
