@@ -177,6 +177,22 @@ impl LikelihoodField {
             .then_some((x as usize, y as usize))
     }
 
+    /// The (possibly outside) cells of the finite `points` placed at `pose`.
+    fn cells_at(&self, points: &[Point2], pose: &Pose2) -> Vec<(i64, i64)> {
+        let res = self.config.resolution_m;
+        points
+            .iter()
+            .filter(|p| p.x.is_finite() && p.y.is_finite())
+            .map(|p| {
+                let w = pose.transform_point(p);
+                (
+                    ((w.x - self.origin.x) / res).floor() as i64,
+                    ((w.y - self.origin.y) / res).floor() as i64,
+                )
+            })
+            .collect()
+    }
+
     /// Sum of `table` at the cells of `cells` shifted by (dx, dy); outside cells count 0.
     fn sum_at(&self, table: &[f32], cells: &[(i64, i64)], dx: i64, dy: i64) -> f32 {
         let (w, h) = (self.width as i64, self.height as i64);
@@ -225,16 +241,7 @@ impl LikelihoodField {
         for a in -angle_steps..=angle_steps {
             let heading = guess.heading_rad + a as f64 * step_rad;
             let pose = Pose2::new(guess.x, guess.y, heading);
-            let cells: Vec<(i64, i64)> = points
-                .iter()
-                .map(|p| {
-                    let w = pose.transform_point(p);
-                    (
-                        ((w.x - self.origin.x) / res).floor() as i64,
-                        ((w.y - self.origin.y) / res).floor() as i64,
-                    )
-                })
-                .collect();
+            let cells = self.cells_at(&points, &pose);
             let ai = rotated.len() as i64;
             for by in 0..blocks {
                 for bx in 0..blocks {
@@ -299,17 +306,7 @@ impl LikelihoodField {
     ) -> [[f64; 2]; 2] {
         let res = self.config.resolution_m;
         let cell_var = res * res / 12.0;
-        let cells: Vec<(i64, i64)> = points
-            .iter()
-            .filter(|p| p.x.is_finite() && p.y.is_finite())
-            .map(|p| {
-                let w = best.transform_point(p);
-                (
-                    ((w.x - self.origin.x) / res).floor() as i64,
-                    ((w.y - self.origin.y) / res).floor() as i64,
-                )
-            })
-            .collect();
+        let cells = self.cells_at(points, best);
         let reach = (radius_m.max(0.0) / res).ceil() as i64;
         let mut scores = Vec::new();
         let mut top = 0f32;
