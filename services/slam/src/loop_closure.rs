@@ -34,14 +34,22 @@ pub struct LoopClosureConfig {
     pub keyframe_angle_rad: f64,
     /// Route length between two keyframes before a match between them is a loop, meters.
     pub min_travel_m: f64,
-    /// Candidate keyframes lie within this distance of the new keyframe's estimate, meters.
+    /// Candidate keyframes lie within this distance of the new keyframe's estimate, meters
+    /// (plus however much the search window has grown beyond `window.linear_m`).
     pub search_radius_m: f64,
     /// Candidates tried per new keyframe, nearest first.
     pub max_candidates: usize,
     /// Keyframes on each side of a candidate that join its local map.
     pub local_map_keyframes: usize,
-    /// Correlative search window around the estimate.
+    /// Correlative search window around the estimate, right after a loop closed.
     pub window: SearchWindow,
+    /// The window's linear half-width grows by this share of the route travelled since
+    /// the last loop closed: the front end's drift grows with distance, and a window
+    /// narrower than the drift finds no match at all, m/m.
+    pub window_growth_per_m: f64,
+    /// The window's linear half-width stops growing here, meters (the search's cost
+    /// grows with its area).
+    pub max_window_m: f64,
     /// Likelihood field of the correlative search.
     pub correlative: CorrelativeConfig,
     /// Least mean likelihood (0..1) of an accepted loop match.
@@ -96,6 +104,8 @@ impl Default for LoopClosureConfig {
                 linear_m: 1.5,
                 angular_rad: 12f64.to_radians(),
             },
+            window_growth_per_m: 0.1,
+            max_window_m: 3.0,
             correlative: CorrelativeConfig::default(),
             min_score: 0.6,
             plateau_fraction: 0.95,
@@ -146,6 +156,8 @@ pub struct LoopCloser {
     /// Route length at each keyframe, meters.
     travel_m: Vec<f64>,
     closures: Vec<LoopClosure>,
+    /// Route length at the last loop closure, meters.
+    travel_at_closure_m: f64,
     /// Heading priors added since the last optimization.
     pending_priors: usize,
 }
@@ -159,6 +171,7 @@ impl LoopCloser {
             points: Vec::new(),
             travel_m: Vec::new(),
             closures: Vec::new(),
+            travel_at_closure_m: 0.0,
             pending_priors: 0,
         }
     }
@@ -248,11 +261,15 @@ impl LoopCloser {
         }
 
         let mut closed = false;
-        for candidate in self.candidates(index) {
-            if let Some(closure) = self.try_close(candidate, index) {
+        let window = self.window(index);
+        for candidate in self.candidates(index, &window) {
+            if let Some(closure) = self.try_close(candidate, index, &window) {
                 self.closures.push(closure);
                 closed = true;
             }
+        }
+        if closed {
+            self.travel_at_closure_m = travel;
         }
         let periodic = self.pending_priors > 0
             && index.is_multiple_of(self.config.optimize_every_keyframes.max(1));
@@ -265,15 +282,29 @@ impl LoopCloser {
         KeyframeOutcome { index, optimized }
     }
 
-    /// Earlier keyframes `new` may be revisiting: near its estimate and far enough behind
-    /// on the route, nearest first.
-    fn candidates(&self, new: usize) -> Vec<usize> {
+    /// The correlative search window for keyframe `new`: `window` widened by
+    /// `window_growth_per_m` of the route since the last closure, up to `max_window_m`.
+    fn window(&self, new: usize) -> SearchWindow {
+        let c = &self.config;
+        let since_m = (self.travel_m[new] - self.travel_at_closure_m).max(0.0);
+        let grown_m = c.window.linear_m + c.window_growth_per_m.max(0.0) * since_m;
+        SearchWindow {
+            linear_m: grown_m.min(c.max_window_m.max(c.window.linear_m)),
+            angular_rad: c.window.angular_rad,
+        }
+    }
+
+    /// Earlier keyframes `new` may be revisiting: near its estimate (within the search
+    /// radius widened as much as `window` is) and far enough behind on the route, nearest
+    /// first.
+    fn candidates(&self, new: usize, window: &SearchWindow) -> Vec<usize> {
         let c = &self.config;
         let at = self.graph.nodes()[new].position();
+        let radius_m = c.search_radius_m + (window.linear_m - c.window.linear_m).max(0.0);
         let mut near: Vec<(f64, usize)> = (0..new)
             .filter(|&i| self.travel_m[new] - self.travel_m[i] >= c.min_travel_m)
             .map(|i| (self.graph.nodes()[i].position().distance(&at), i))
-            .filter(|(d, _)| *d <= c.search_radius_m)
+            .filter(|(d, _)| *d <= radius_m)
             .collect();
         near.sort_by(|a, b| a.0.total_cmp(&b.0));
         near.into_iter()
@@ -284,7 +315,7 @@ impl LoopCloser {
 
     /// Matches keyframe `new` against the local map around `old`; the closure when the
     /// match is good, after adding its edge.
-    fn try_close(&mut self, old: usize, new: usize) -> Option<LoopClosure> {
+    fn try_close(&mut self, old: usize, new: usize, window: &SearchWindow) -> Option<LoopClosure> {
         let c = &self.config;
         let nodes = self.graph.nodes();
         let anchor = nodes[old];
@@ -313,7 +344,7 @@ impl LoopCloser {
         let field = LikelihoodField::new(&local, c.correlative);
         let query = voxel_filter(scan, 2.0 * c.voxel_m);
         let guess = anchor.between(&nodes[new]);
-        let found = field.search(&query, guess, &c.window)?;
+        let found = field.search(&query, guess, window)?;
         if found.score < c.min_score {
             return None;
         }
@@ -328,12 +359,8 @@ impl LoopCloser {
         // In a corridor the match slides along it: the edge's information follows the
         // score plateau, so it holds the position across the corridor and the heading,
         // and leaves the position along it to the sequential edges.
-        let plateau = field.translation_covariance(
-            &query,
-            &found.pose,
-            c.window.linear_m,
-            c.plateau_fraction,
-        );
+        let plateau =
+            field.translation_covariance(&query, &found.pose, window.linear_m, c.plateau_fraction);
         let sigma_sq = c.loop_sigma_m * c.loop_sigma_m;
         let cov = nalgebra::Matrix2::new(
             plateau[0][0] + sigma_sq,
@@ -470,6 +497,8 @@ mod tests {
             let out = lc.add_keyframe(estimate, &view(t), None);
             if out.optimized && closed_at.is_none() {
                 closed_at = Some(k);
+                // The route since the last closure starts again: the window is the narrow one.
+                assert_eq!(lc.window(k).linear_m, 1.5);
             }
         }
         assert!(closed_at.is_some(), "no loop closed");
@@ -482,6 +511,26 @@ mod tests {
             "{got:?} vs {expected:?}"
         );
         assert!(lc.closures().iter().all(|c| c.score >= 0.6));
+    }
+
+    #[test]
+    fn the_search_window_grows_with_the_route_since_the_last_closure() {
+        // Keyframes every 0.5 m along a 10 m room, no loop: the window widens by 10 % of
+        // the route (1.5 m + 0.1 × 4.5 m after 9 steps) and stops at 3 m.
+        let mut lc = LoopCloser::new(LoopClosureConfig::default());
+        for i in 0..10 {
+            let p = Pose2::new(2.0 + 0.5 * i as f64, 1.2, 0.0);
+            lc.add_keyframe(Pose2::new(0.5 * i as f64, 0.0, 0.0), &view(&p), None);
+        }
+        assert!(lc.closures().is_empty());
+        assert!((lc.window(0).linear_m - 1.5).abs() < 1e-12);
+        assert!((lc.window(9).linear_m - 1.95).abs() < 1e-12);
+        for i in 10..40 {
+            let p = Pose2::new(2.0 + 0.2 * i as f64, 1.2, 0.0);
+            lc.add_keyframe(Pose2::new(0.5 * i as f64, 0.0, 0.0), &view(&p), None);
+        }
+        assert_eq!(lc.window(39).linear_m, 3.0);
+        assert!(lc.window(39).angular_rad == LoopClosureConfig::default().window.angular_rad);
     }
 
     #[test]
