@@ -125,6 +125,7 @@ pub fn run_dataset_in_process(
     result.wall_s = mapping_s;
     result.scans_per_s = health.scans_processed as f64 / mapping_s.max(1e-9);
     result.recoveries = health.recoveries;
+    result.loop_closures = health.loop_closures;
     scan_ms.sort_by(f64::total_cmp);
     if !scan_ms.is_empty() {
         result.scan_ms_mean = Some(scan_ms.iter().sum::<f64>() / scan_ms.len() as f64);
@@ -195,6 +196,7 @@ pub fn score_dataset_artifacts(
         wall_s: 0.0,
         scans_per_s: 0.0,
         recoveries: 0,
+        loop_closures: 0,
         scan_ms_mean: None,
         scan_ms_p99: None,
         realtime_factor: None,

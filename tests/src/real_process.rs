@@ -91,6 +91,8 @@ pub struct ProcessRun {
     pub wall_s: f64,
     /// Recoveries of MCL on the sketch.
     pub recoveries: u32,
+    /// Loops the session closed.
+    pub loop_closures: u32,
 }
 
 impl ProcessRun {
@@ -109,6 +111,7 @@ impl ProcessRun {
         result.wall_s = self.wall_s;
         result.scans_per_s = self.scans as f64 / self.wall_s.max(1e-9);
         result.recoveries = self.recoveries;
+        result.loop_closures = self.loop_closures;
     }
 }
 
@@ -249,6 +252,7 @@ pub fn map_through_processes(
         scans: stopped.scans_processed,
         wall_s,
         recoveries: stopped.recoveries as u32,
+        loop_closures: stopped.loop_closures as u32,
     })
 }
 

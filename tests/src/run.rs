@@ -63,6 +63,9 @@ pub struct RunResult {
     pub scans_per_s: f64,
     /// Recoveries of MCL on the sketch.
     pub recoveries: u32,
+    /// Loops closed by the `sketch` method's back end.
+    #[serde(default)]
+    pub loop_closures: u32,
     /// Mean engine time per scan, milliseconds (in-process runs).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub scan_ms_mean: Option<f64>,
@@ -194,6 +197,7 @@ pub fn run_in_process(
     let sim_s = truth_poses_span_s(&truth);
     result.realtime_factor = Some(sim_s / mapping_s.max(1e-9));
     result.recoveries = health.recoveries;
+    result.loop_closures = health.loop_closures;
     Ok(result)
 }
 
@@ -267,6 +271,7 @@ pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
         wall_s: 0.0,
         scans_per_s: 0.0,
         recoveries: 0,
+        loop_closures: 0,
         scan_ms_mean: None,
         scan_ms_p99: None,
         realtime_factor: None,

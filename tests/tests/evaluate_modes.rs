@@ -47,11 +47,13 @@ fn in_process_and_real_processes_build_the_same_map() -> anyhow::Result<()> {
         std::fs::read(b_dir.join("map.yaml"))?
     );
     assert_eq!(a.map_error_m, b.map_error_m);
+    // The service reports the loops its session closed, as the in-process mapper counts them.
+    assert_eq!(a.loop_closures, b.loop_closures);
     // Generous bounds on the first 20 m of the route (completeness counts the walls the
     // sensor saw in those scans only).
     eprintln!(
-        "map error {:.3} m, completeness {:.3}",
-        a.map_error_m, a.completeness
+        "map error {:.3} m, completeness {:.3}, {} loops closed",
+        a.map_error_m, a.completeness, a.loop_closures
     );
     assert!(a.map_error_m <= 0.25, "map error {}", a.map_error_m);
     assert!(a.completeness >= 0.8, "completeness {}", a.completeness);

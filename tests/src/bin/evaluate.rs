@@ -259,7 +259,7 @@ fn print_relations(results: &[RunResult]) {
 
 fn print_table(results: &[RunResult]) {
     println!(
-        "{:<12} {:<9} {:<8} {:>7} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>5}",
+        "{:<12} {:<9} {:<8} {:>7} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>5} {:>5}",
         "scenario",
         "method",
         "sketch",
@@ -272,12 +272,13 @@ fn print_table(results: &[RunResult]) {
         "ms/scan",
         "p99 ms",
         "RTF",
-        "rec."
+        "rec.",
+        "loops"
     );
     let opt = |v: Option<f64>, prec: usize| v.map_or("-".to_string(), |v| format!("{v:.prec$}"));
     for r in results {
         println!(
-            "{:<12} {:<9} {:<8} {:>7.3} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5}",
+            "{:<12} {:<9} {:<8} {:>7.3} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5} {:>5}",
             r.scenario,
             r.method,
             r.sketch.as_deref().unwrap_or("-"),
@@ -290,7 +291,8 @@ fn print_table(results: &[RunResult]) {
             opt(r.scan_ms_mean, 2),
             opt(r.scan_ms_p99, 2),
             opt(r.realtime_factor, 1),
-            r.recoveries
+            r.recoveries,
+            r.loop_closures
         );
     }
     if let Some(r) = results.first() {

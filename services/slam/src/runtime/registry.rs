@@ -299,6 +299,7 @@ impl Registry {
             publisher_restarts: 0,
             localization_score: 0.0,
             recoveries: 0,
+            loop_closures: 0,
             estimated_meters_per_pixel: request.meters_per_pixel,
             last_error: None,
             created_unix_ms: now_unix_ms(),
@@ -553,6 +554,12 @@ impl Backend for Registry {
             "counter",
             "Recoveries of localization on the sketch.",
             &|i, _| i.recoveries.to_string(),
+        );
+        family(
+            "sketchslam_loop_closures_total",
+            "counter",
+            "Loops closed by the sketch method's back end.",
+            &|i, _| i.loop_closures.to_string(),
         );
         family(
             "sketchslam_localization_score",
