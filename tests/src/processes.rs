@@ -8,7 +8,6 @@
 //!   each other; [`free_port`] a loopback port for the HTTP API.
 
 use anyhow::{Context, Result, bail};
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command};
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -28,15 +27,40 @@ pub fn bin_dir() -> Result<PathBuf> {
     Ok(dir)
 }
 
-/// The path of workspace binary `bin` of package `package`, built first (once per process)
-/// with the same profile and target dir as the running executable.
+/// The path of workspace binary `bin` of package `package`, with every workspace binary
+/// built first (once per process) with the same profile and target dir as the running
+/// executable.
+///
+/// The build covers the whole workspace (`cargo build --workspace --bins`), not just
+/// `package`: Cargo unifies dependency features over the packages it builds, so building
+/// one package alone selects other features than `cargo test --workspace` did and
+/// recompiles much of the dependency tree (minutes on a fresh clone). Over the whole
+/// workspace the features match, and after `cargo test --workspace` the build is a no-op.
 pub fn binary(package: &str, bin: &str) -> Result<PathBuf> {
-    static BUILT: OnceLock<Mutex<HashMap<String, PathBuf>>> = OnceLock::new();
-    let built = BUILT.get_or_init(|| Mutex::new(HashMap::new()));
+    static BUILT: OnceLock<Mutex<Option<PathBuf>>> = OnceLock::new();
+    let built = BUILT.get_or_init(|| Mutex::new(None));
     let mut built = built.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some(path) = built.get(bin) {
-        return Ok(path.clone());
+    let dir = match built.as_ref() {
+        Some(dir) => dir.clone(),
+        None => {
+            let dir = build_workspace_bins()?;
+            *built = Some(dir.clone());
+            dir
+        }
+    };
+    let path = dir.join(bin);
+    if !path.exists() {
+        bail!(
+            "{} was not built: is `{bin}` a binary of package {package}?",
+            path.display()
+        );
     }
+    Ok(path)
+}
+
+/// Builds every workspace binary with the running executable's profile and target dir;
+/// returns the folder holding them.
+fn build_workspace_bins() -> Result<PathBuf> {
     let dir = bin_dir()?;
     let profile = dir
         .file_name()
@@ -46,7 +70,7 @@ pub fn binary(package: &str, bin: &str) -> Result<PathBuf> {
     let target_dir = dir.parent().context("profile folder without a parent")?;
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut cmd = Command::new(cargo);
-    cmd.args(["build", "--quiet", "-p", package, "--bin", bin])
+    cmd.args(["build", "--quiet", "--workspace", "--bins"])
         .env("CARGO_TARGET_DIR", target_dir);
     match profile.as_str() {
         "debug" => {}
@@ -60,16 +84,11 @@ pub fn binary(package: &str, bin: &str) -> Result<PathBuf> {
     cmd.current_dir(workspace_root());
     let status = cmd
         .status()
-        .with_context(|| format!("running cargo build for {bin}"))?;
+        .context("running cargo build --workspace --bins")?;
     if !status.success() {
-        bail!("cargo build -p {package} --bin {bin} failed");
+        bail!("cargo build --workspace --bins failed");
     }
-    let path = dir.join(bin);
-    if !path.exists() {
-        bail!("{} was not built", path.display());
-    }
-    built.insert(bin.to_string(), path.clone());
-    Ok(path)
+    Ok(dir)
 }
 
 /// The workspace root (this crate's parent folder).
