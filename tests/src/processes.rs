@@ -51,7 +51,9 @@ pub fn binary(package: &str, bin: &str) -> Result<PathBuf> {
     let path = dir.join(bin);
     if !path.exists() {
         bail!(
-            "{} was not built: is `{bin}` a binary of package {package}?",
+            "{} not found: build the workspace's binaries (cargo build --release --workspace \
+             --bins) and run from the target folder, or put `{bin}` (package {package}) \
+             beside this executable",
             path.display()
         );
     }
@@ -59,9 +61,13 @@ pub fn binary(package: &str, bin: &str) -> Result<PathBuf> {
 }
 
 /// Builds every workspace binary with the running executable's profile and target dir;
-/// returns the folder holding them.
+/// returns the folder holding them. An executable that does not run from a Cargo target
+/// folder (copied or installed elsewhere) builds nothing: the binaries must lie beside it.
 fn build_workspace_bins() -> Result<PathBuf> {
     let dir = bin_dir()?;
+    if !dir.join(".fingerprint").is_dir() {
+        return Ok(dir);
+    }
     let profile = dir
         .file_name()
         .and_then(|n| n.to_str())
