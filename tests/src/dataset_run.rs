@@ -103,19 +103,7 @@ pub fn run_dataset_in_process(
     let relations = dataset_relations(dataset)?;
     let mut result = score_dataset_artifacts(out_dir, &truth_poses, &relations)?;
     if let (Some(cfg), Some(sketch_pose)) = (sketch, mapper.pose().sketch) {
-        draw_sketch_overlay(out_dir, cfg, mapper.pose().map, &sketch_pose)
-            .context("drawing sketch-overlay.png")?;
-        // The final pose on the drawing, to compare with the start marked on it.
-        std::fs::write(
-            out_dir.join("sketch-pose.csv"),
-            format!(
-                "u_px,v_px,heading_rad,meters_per_pixel\n{},{},{},{}\n",
-                sketch_pose.u_px,
-                sketch_pose.v_px,
-                sketch_pose.heading_rad,
-                sketch_pose.meters_per_pixel
-            ),
-        )?;
+        write_sketch_artifacts(out_dir, cfg, mapper.pose().map, &sketch_pose)?;
     }
     let health = mapper.health();
     result.scenario = dataset.name.clone();
@@ -139,8 +127,8 @@ pub fn run_dataset_in_process(
 
 /// Maps `dataset`'s log with `method` through the real processes (`slam-service` and
 /// `simulator replay`, lock-step) and scores the result as the in-process mode does; with
-/// `max_scans`, only the log's first scans. No sketch overlay: the service does not hand
-/// out the final sketch pose with the artifacts.
+/// `max_scans`, only the log's first scans. The sketch overlay goes through the session's
+/// last pose as `GET /v1/sessions/{id}/pose` gave it.
 pub fn run_dataset_real_process(
     dataset: &Dataset,
     method: Method,
@@ -159,6 +147,9 @@ pub fn run_dataset_real_process(
     let truth = read_trajectory_csv(&out_dir.join("truth.csv"))?;
     let relations = dataset_relations(dataset)?;
     let mut result = score_dataset_artifacts(out_dir, &truth, &relations)?;
+    if let (Some(cfg), (map_pose, Some(sketch_pose))) = (sketch, &mapped.final_pose) {
+        write_sketch_artifacts(out_dir, cfg, *map_pose, sketch_pose)?;
+    }
     mapped.fill(&mut result, &dataset.name, method, sketch);
     Ok(result)
 }
@@ -265,6 +256,30 @@ pub fn draw_overlay(
 
 /// Draws the map over the sketch through the final pose: a map point `p` is seen from the
 /// final map pose, placed at the final sketch pose and divided by its scale.
+/// Writes `sketch-overlay.png` (the map drawn over the drawing through the session's last
+/// map pose and its pose and scale on the drawing) and `sketch-pose.csv` (that pose on the
+/// drawing, to compare with the start marked on it).
+fn write_sketch_artifacts(
+    out_dir: &Path,
+    cfg: &SketchConfig,
+    final_map_pose: Pose2,
+    sketch_pose: &SketchPose,
+) -> Result<()> {
+    draw_sketch_overlay(out_dir, cfg, final_map_pose, sketch_pose)
+        .context("drawing sketch-overlay.png")?;
+    std::fs::write(
+        out_dir.join("sketch-pose.csv"),
+        format!(
+            "u_px,v_px,heading_rad,meters_per_pixel\n{},{},{},{}\n",
+            sketch_pose.u_px,
+            sketch_pose.v_px,
+            sketch_pose.heading_rad,
+            sketch_pose.meters_per_pixel
+        ),
+    )?;
+    Ok(())
+}
+
 fn draw_sketch_overlay(
     out_dir: &Path,
     cfg: &SketchConfig,

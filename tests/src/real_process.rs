@@ -13,10 +13,12 @@ use crate::run::{RunResult, Truth, read_trajectory_csv, score_artifacts, seen_wa
 use anyhow::{Context, Result, bail};
 use sketchslam_api::client::SketchslamClient;
 use sketchslam_api::types::{CreateSessionRequest, MappingMethod, SketchStart};
+use sketchslam_shared::Pose2;
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
 use sketchslam_simulator::simulation::Simulation;
 use sketchslam_simulator::world::World;
 use sketchslam_slam::mapper::Method;
+use sketchslam_slam::sketch::SketchPose;
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -93,6 +95,8 @@ pub struct ProcessRun {
     pub recoveries: u32,
     /// Loops the session closed.
     pub loop_closures: u32,
+    /// The session's last pose: map frame, and on the drawing (`sketch` sessions).
+    pub final_pose: (Pose2, Option<SketchPose>),
 }
 
 impl ProcessRun {
@@ -234,6 +238,16 @@ pub fn map_through_processes(
         }
     }
     let wall_s = started.elapsed().as_secs_f64();
+    let pose = runtime.block_on(client.pose(&session.id))?;
+    let final_pose = (
+        Pose2::new(pose.x, pose.y, pose.theta),
+        pose.sketch.map(|s| SketchPose {
+            u_px: s.u,
+            v_px: s.v,
+            heading_rad: s.heading_deg.to_radians(),
+            meters_per_pixel: s.meters_per_pixel,
+        }),
+    );
     let stopped = runtime.block_on(client.stop_session(&session.id))?;
     std::fs::write(
         out_dir.join("map.pgm"),
@@ -253,6 +267,7 @@ pub fn map_through_processes(
         wall_s,
         recoveries: stopped.recoveries as u32,
         loop_closures: stopped.loop_closures as u32,
+        final_pose,
     })
 }
 

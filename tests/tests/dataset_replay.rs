@@ -47,3 +47,62 @@ fn intel_replay_maps_the_same_in_both_modes() -> anyhow::Result<()> {
     let _ = std::fs::remove_dir_all(&out);
     Ok(())
 }
+
+#[test]
+fn a_sketch_replay_draws_the_map_over_the_drawing_in_both_modes() -> anyhow::Result<()> {
+    let dir = Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../shared/datasets/intel-lab"
+    ));
+    if !dir.join(DATASET_FILE).is_file() {
+        eprintln!("skipped: no shared dataset at {}", dir.display());
+        return Ok(());
+    }
+    let dataset = Dataset::load(dir)?;
+    let sketch = dataset.sketches.first().expect("the dataset has a sketch");
+    let out = std::env::temp_dir().join(format!("sketchslam-replay-sk-{}", std::process::id()));
+    let (a_dir, b_dir) = (out.join("in-process"), out.join("processes"));
+    let scans = 40;
+    let a = run_dataset_in_process(
+        &dataset,
+        Method::Sketch,
+        Some(sketch),
+        &a_dir,
+        Some(scans),
+        |_, _| {},
+    )?;
+    let b = run_dataset_real_process(
+        &dataset,
+        Method::Sketch,
+        Some(sketch),
+        &b_dir,
+        Some(scans),
+        |_, _| {},
+    )?;
+    assert_eq!((a.scans, b.scans), (scans, scans));
+    assert!(std::fs::read(a_dir.join("map.pgm"))? == std::fs::read(b_dir.join("map.pgm"))?);
+    // Both modes draw the map over the drawing, at the drawing's size, through the same
+    // final pose on it (the service's goes through JSON, its heading through degrees).
+    let drawing = image::image_dimensions(&sketch.image)?;
+    for d in [&a_dir, &b_dir] {
+        assert_eq!(
+            image::image_dimensions(d.join("sketch-overlay.png"))?,
+            drawing
+        );
+    }
+    let pose = |d: &Path| -> anyhow::Result<Vec<f64>> {
+        let text = std::fs::read_to_string(d.join("sketch-pose.csv"))?;
+        let row = text.lines().nth(1).unwrap_or_default();
+        Ok(row
+            .split(',')
+            .map(|v| v.parse().unwrap_or(f64::NAN))
+            .collect())
+    };
+    let (pa, pb) = (pose(&a_dir)?, pose(&b_dir)?);
+    assert_eq!(pa.len(), 4);
+    for (x, y) in pa.iter().zip(&pb) {
+        assert!((x - y).abs() < 1e-9, "{pa:?} vs {pb:?}");
+    }
+    let _ = std::fs::remove_dir_all(&out);
+    Ok(())
+}
