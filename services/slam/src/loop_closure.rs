@@ -156,8 +156,6 @@ pub struct LoopCloser {
     /// Route length at each keyframe, meters.
     travel_m: Vec<f64>,
     closures: Vec<LoopClosure>,
-    /// Route length at the last loop closure, meters.
-    travel_at_closure_m: f64,
     /// Heading priors added since the last optimization.
     pending_priors: usize,
 }
@@ -171,7 +169,6 @@ impl LoopCloser {
             points: Vec::new(),
             travel_m: Vec::new(),
             closures: Vec::new(),
-            travel_at_closure_m: 0.0,
             pending_priors: 0,
         }
     }
@@ -268,9 +265,6 @@ impl LoopCloser {
                 closed = true;
             }
         }
-        if closed {
-            self.travel_at_closure_m = travel;
-        }
         let periodic = self.pending_priors > 0
             && index.is_multiple_of(self.config.optimize_every_keyframes.max(1));
         let optimized = closed || periodic;
@@ -286,7 +280,9 @@ impl LoopCloser {
     /// `window_growth_per_m` of the route since the last closure, up to `max_window_m`.
     fn window(&self, new: usize) -> SearchWindow {
         let c = &self.config;
-        let since_m = (self.travel_m[new] - self.travel_at_closure_m).max(0.0);
+        // Route length at the last closure: that of its newer keyframe.
+        let closed_at_m = self.closures.last().map_or(0.0, |c| self.travel_m[c.to]);
+        let since_m = (self.travel_m[new] - closed_at_m).max(0.0);
         let grown_m = c.window.linear_m + c.window_growth_per_m.max(0.0) * since_m;
         SearchWindow {
             linear_m: grown_m.min(c.max_window_m.max(c.window.linear_m)),
