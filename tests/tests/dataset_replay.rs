@@ -11,17 +11,24 @@ use std::path::Path;
 /// The first scans of the log: a few minutes of the robot's route.
 const SCANS: u64 = 100;
 
-#[test]
-fn intel_replay_maps_the_same_in_both_modes() -> anyhow::Result<()> {
+/// The shared Intel Lab dataset, or `None` (with a note) when it is not beside the checkout.
+fn intel_dataset() -> anyhow::Result<Option<Dataset>> {
     let dir = Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../../shared/datasets/intel-lab"
     ));
     if !dir.join(DATASET_FILE).is_file() {
         eprintln!("skipped: no shared dataset at {}", dir.display());
-        return Ok(());
+        return Ok(None);
     }
-    let dataset = Dataset::load(dir)?;
+    Ok(Some(Dataset::load(dir)?))
+}
+
+#[test]
+fn intel_replay_maps_the_same_in_both_modes() -> anyhow::Result<()> {
+    let Some(dataset) = intel_dataset()? else {
+        return Ok(());
+    };
     let out = std::env::temp_dir().join(format!("sketchslam-replay-{}", std::process::id()));
     let (a_dir, b_dir) = (out.join("in-process"), out.join("processes"));
     let a = run_dataset_in_process(&dataset, Method::Icp, None, &a_dir, Some(SCANS), |_, _| {})?;
@@ -50,15 +57,9 @@ fn intel_replay_maps_the_same_in_both_modes() -> anyhow::Result<()> {
 
 #[test]
 fn a_sketch_replay_draws_the_map_over_the_drawing_in_both_modes() -> anyhow::Result<()> {
-    let dir = Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/datasets/intel-lab"
-    ));
-    if !dir.join(DATASET_FILE).is_file() {
-        eprintln!("skipped: no shared dataset at {}", dir.display());
+    let Some(dataset) = intel_dataset()? else {
         return Ok(());
-    }
-    let dataset = Dataset::load(dir)?;
+    };
     let sketch = dataset.sketches.first().expect("the dataset has a sketch");
     let out = std::env::temp_dir().join(format!("sketchslam-replay-sk-{}", std::process::id()));
     let (a_dir, b_dir) = (out.join("in-process"), out.join("processes"));
