@@ -389,7 +389,10 @@ mod tests {
         let log = CarmenLog::read(&dataset.log).unwrap();
         assert_eq!(log.lasers().count(), 910);
         assert!(log.lasers().all(|l| l.ranges_m.len() == 180));
-        assert_eq!(dataset.sketches.len(), 2);
+        // The drawings listed grow over time (two sketches, then a CAD plan): check that
+        // there is one and that each image named is there, not how many there are.
+        assert!(dataset.sketches.iter().any(|s| s.name == "person-1"));
+        assert!(dataset.sketches.iter().all(|s| s.image.is_file()));
         let replay = Replay::from_log(&dataset, &log).unwrap();
         assert_eq!(replay.scan_count(), 910);
         let mut last = 0;
