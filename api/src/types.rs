@@ -168,7 +168,7 @@ impl CreateSessionRequest {
     /// method needs, and that every number is finite and in range. The sketch's existence
     /// and whether the start lies on it are the backend's to check.
     pub fn validate(&self) -> Result<(), ApiError> {
-        sketchslam_shared::names::validate_segment("robot_id", &self.robot_id)
+        sketchslam_types::names::validate_segment("robot_id", &self.robot_id)
             .map_err(|e| ApiError::invalid("invalid_robot_id", e.to_string()))?;
         match self.method {
             MappingMethod::Sketch => {

@@ -22,7 +22,7 @@
 //! kind is an error naming the file and the 1-based line ([`SimError::Parse`]).
 
 use crate::error::SimError;
-use sketchslam_shared::Pose2;
+use sketchslam_types::Pose2;
 use std::path::Path;
 
 /// A laser scan of the log (`FLASER` or `ROBOTLASER1`).

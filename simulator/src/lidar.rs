@@ -14,7 +14,7 @@ use crate::scenario::LidarConfig;
 use crate::world::World;
 use rand::Rng;
 use rand_distr::StandardNormal;
-use sketchslam_shared::{Pose2, ScanHeader};
+use sketchslam_types::{Pose2, ScanHeader};
 
 /// The shortest range the scanner reports, meters.
 pub const RANGE_MIN_M: f64 = 0.05;

@@ -13,13 +13,13 @@
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
-use sketchslam_shared::Pose2;
-use sketchslam_shared::SensorEvent;
-use sketchslam_shared::ipc::{DEFAULT_BACKPRESSURE_TIMEOUT, IpcConfig, RobotPublisher};
+use sketchslam_ipc::{DEFAULT_BACKPRESSURE_TIMEOUT, IpcConfig, RobotPublisher};
 use sketchslam_simulator::dataset::Dataset;
 use sketchslam_simulator::publish::{Pace, PublishOptions, publish_events};
 use sketchslam_simulator::replay::Replay;
 use sketchslam_simulator::{Scenario, SimStep, Simulation};
+use sketchslam_types::Pose2;
+use sketchslam_types::SensorEvent;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -57,7 +57,7 @@ struct RunArgs {
     #[arg(long)]
     truth_out: Option<PathBuf>,
     /// The iceoryx2 prefix (isolates parallel runs).
-    #[arg(long, env = "SKETCHSLAM_IPC_PREFIX", default_value = sketchslam_shared::DEFAULT_PREFIX)]
+    #[arg(long, env = "SKETCHSLAM_IPC_PREFIX", default_value = sketchslam_types::DEFAULT_PREFIX)]
     ipc_prefix: String,
     /// Stop after this many scans.
     #[arg(long)]

@@ -7,7 +7,7 @@
 //! query is a binary search plus O(1) interpolation: O(log n) for n waypoints, pure.
 
 use crate::scenario::RobotConfig;
-use sketchslam_shared::{Point2, Pose2, wrap_angle};
+use sketchslam_types::{Point2, Pose2, wrap_angle};
 
 /// One piece of the motion, starting at `start_s` in the pose `from`.
 #[derive(Debug, Clone, Copy, PartialEq)]

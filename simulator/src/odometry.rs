@@ -34,7 +34,7 @@ use crate::scenario::OdometryConfig;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
-use sketchslam_shared::Pose2;
+use sketchslam_types::Pose2;
 
 /// A dead-reckoning integrator with noisy, biased increments.
 #[derive(Debug, Clone)]

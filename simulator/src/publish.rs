@@ -7,8 +7,8 @@
 //! tests pass synthetic ones. The [`RobotPublisher`] is not `Send`, so this runs on the
 //! thread that created it.
 
-use sketchslam_shared::SensorEvent;
-use sketchslam_shared::ipc::{Delivery, IpcError, RobotPublisher};
+use sketchslam_ipc::{Delivery, IpcError, RobotPublisher};
+use sketchslam_types::SensorEvent;
 use std::io::Write;
 use std::time::{Duration, Instant};
 use thiserror::Error;
@@ -195,7 +195,7 @@ impl Progress {
         }
     }
 
-    fn line(&self, stats: &sketchslam_shared::ipc::PublisherStats, sim_ns: Option<u64>) -> String {
+    fn line(&self, stats: &sketchslam_ipc::PublisherStats, sim_ns: Option<u64>) -> String {
         let scans = match self.expected_scans {
             Some(total) => format!("{}/{total}", stats.scans_sent),
             None => stats.scans_sent.to_string(),
@@ -209,7 +209,7 @@ impl Progress {
         )
     }
 
-    fn tick(&mut self, stats: &sketchslam_shared::ipc::PublisherStats, sim_ns: u64) {
+    fn tick(&mut self, stats: &sketchslam_ipc::PublisherStats, sim_ns: u64) {
         if self.enabled && self.last_print.elapsed() >= Duration::from_millis(500) {
             self.last_print = Instant::now();
             self.printed = true;
@@ -219,7 +219,7 @@ impl Progress {
         }
     }
 
-    fn finish(&mut self, stats: &sketchslam_shared::ipc::PublisherStats) {
+    fn finish(&mut self, stats: &sketchslam_ipc::PublisherStats) {
         if self.enabled {
             let lead = if self.printed { "\r" } else { "" };
             eprintln!("{lead}{}   ", self.line(stats, None));

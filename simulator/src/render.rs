@@ -15,7 +15,7 @@ use crate::scenario::Scenario;
 use crate::simulation::{RENDER_STREAM, stream_rng};
 use crate::world::World;
 use image::{Rgb, RgbImage};
-use sketchslam_shared::Point2;
+use sketchslam_types::Point2;
 use std::path::Path;
 
 const WALL: Rgb<u8> = Rgb([60, 60, 60]);

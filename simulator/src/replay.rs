@@ -49,7 +49,7 @@ use crate::error::SimError;
 use crate::lidar::RANGE_MIN_M;
 use crate::odometry::OdometryModel;
 use crate::simulation::{ODOMETRY_STREAM, SimStep, stream_rng};
-use sketchslam_shared::{Odometry, Pose2, Scan, ScanHeader, SensorEvent};
+use sketchslam_types::{Odometry, Pose2, Scan, ScanHeader, SensorEvent};
 
 /// The replay of a dataset's log: an iterator over [`SimStep`]s in stamp order.
 #[derive(Debug, Clone)]

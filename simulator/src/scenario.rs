@@ -14,7 +14,7 @@
 use crate::error::{SimError, line_of_offset};
 use crate::world::{self, World};
 use serde::Deserialize;
-use sketchslam_shared::{Point2, Pose2, wrap_angle};
+use sketchslam_types::{Point2, Pose2, wrap_angle};
 use std::path::{Path, PathBuf};
 
 /// The file a scenario folder must hold.

@@ -30,7 +30,7 @@ use crate::scenario::Scenario;
 use crate::world::World;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use sketchslam_shared::{Odometry, Pose2, Scan, SensorEvent};
+use sketchslam_types::{Odometry, Pose2, Scan, SensorEvent};
 
 /// Stream constant of the odometry noise: its rng is `seed_from_u64(seed ^ ODOMETRY_STREAM)`.
 pub const ODOMETRY_STREAM: u64 = 0x0D0D_0D0D_0D0D_0D0D;

@@ -8,7 +8,7 @@
 
 use crate::error::SimError;
 use crate::simulation::SimStep;
-use sketchslam_shared::{Pose2, SensorEvent};
+use sketchslam_types::{Pose2, SensorEvent};
 use std::io::{BufWriter, Write};
 use std::path::Path;
 

@@ -12,7 +12,7 @@
 //! `j = height − 1 − v`. Everything outside the image is wall, so every ray ends.
 
 use crate::error::SimError;
-use sketchslam_shared::Point2;
+use sketchslam_types::Point2;
 use std::path::Path;
 
 /// Pixels darker than this (8-bit luma) are walls.

@@ -1,10 +1,10 @@
 //! The bundled scenarios load, simulate with the expected number of messages in stamp
 //! order, are deterministic for a seed, and render.
 
-use sketchslam_shared::SensorEvent;
 use sketchslam_simulator::render::{render_scenario, save_png};
 use sketchslam_simulator::truth::{TruthRecorder, read_truth_csv};
 use sketchslam_simulator::{Scenario, Simulation};
+use sketchslam_types::SensorEvent;
 use std::path::{Path, PathBuf};
 
 fn scenario_dir(name: &str) -> PathBuf {

@@ -3,9 +3,9 @@
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use sketchslam_shared::{Pose2, wrap_angle};
 use sketchslam_simulator::OdometryConfig;
 use sketchslam_simulator::odometry::OdometryModel;
+use sketchslam_types::{Pose2, wrap_angle};
 use std::f64::consts::PI;
 
 const SEEDS: u64 = 200;

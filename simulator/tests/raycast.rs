@@ -1,8 +1,8 @@
 //! Exact ray casting: ranges worked out by hand in a square room, and agreement with a
 //! brute-force fine march in the bundled paper-env1 world.
 
-use sketchslam_shared::Point2;
 use sketchslam_simulator::World;
+use sketchslam_types::Point2;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI, SQRT_2};
 use std::path::Path;
 

@@ -2,10 +2,10 @@
 //! the truth (map pose, sketch pose, scale, lines observed, score, recoveries), for looking
 //! into a run. `GAIN=` overrides the heading gain, `PREV=1` uses the previous scan as ICP
 //! reference.
-use sketchslam_shared::SensorEvent;
+use sketchslam_engine::mapper::{Mapper, MapperConfig, Method};
 use sketchslam_simulator::scenario::Scenario;
 use sketchslam_simulator::simulation::Simulation;
-use sketchslam_slam::mapper::{Mapper, MapperConfig, Method};
+use sketchslam_types::SensorEvent;
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().collect();
@@ -22,9 +22,9 @@ fn main() -> anyhow::Result<()> {
         .map(|s| s.parse().unwrap())
         .unwrap_or(0.05);
     let reference = if std::env::var("PREV").is_ok() {
-        sketchslam_slam::mapper::IcpReference::PreviousScan
+        sketchslam_engine::mapper::IcpReference::PreviousScan
     } else {
-        sketchslam_slam::mapper::IcpReference::Map
+        sketchslam_engine::mapper::IcpReference::Map
     };
     let mut m = Mapper::new(
         Method::Sketch,

@@ -20,13 +20,13 @@ use crate::relations::{Relation, score_relations};
 use crate::run::{RunResult, occupied_points, read_trajectory_csv, sketch_prior};
 use anyhow::{Context, Result};
 use image::{Rgb, RgbImage};
-use sketchslam_shared::{Point2, Pose2, SensorEvent};
+use sketchslam_engine::mapper::{Mapper, MapperConfig, Method, trajectory_csv};
+use sketchslam_engine::mapping::ros_export::{parse_map_yaml, parse_pgm};
+use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::dataset::Dataset;
 use sketchslam_simulator::replay::Replay;
 use sketchslam_simulator::scenario::SketchConfig;
-use sketchslam_slam::grid_export::{parse_map_yaml, parse_pgm};
-use sketchslam_slam::mapper::{Mapper, MapperConfig, Method, trajectory_csv};
-use sketchslam_slam::sketch::SketchPose;
+use sketchslam_types::{Point2, Pose2, SensorEvent};
 use std::path::Path;
 use std::time::Instant;
 

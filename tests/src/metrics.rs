@@ -14,7 +14,7 @@
 //! points.
 
 use kiddo::{KdTree, SquaredEuclidean};
-use sketchslam_shared::{Point2, Pose2};
+use sketchslam_types::{Point2, Pose2};
 
 /// Distance within which a seen wall pixel counts as mapped, meters.
 pub const COMPLETENESS_RADIUS_M: f64 = 0.25;
@@ -151,7 +151,7 @@ pub fn pose_at(estimate: &[StampedPose], t_s: f64) -> Option<Pose2> {
     }
     let before = estimate.get(i.checked_sub(1)?)?;
     let f = (t_s - before.t_s) / (after.t_s - before.t_s);
-    let dth = sketchslam_shared::wrap_angle(after.pose.heading_rad - before.pose.heading_rad);
+    let dth = sketchslam_types::wrap_angle(after.pose.heading_rad - before.pose.heading_rad);
     Some(Pose2::new(
         before.pose.x + f * (after.pose.x - before.pose.x),
         before.pose.y + f * (after.pose.y - before.pose.y),

@@ -6,7 +6,7 @@
 
 use crate::metrics::{StampedPose, WallGrid};
 use image::{Rgb, RgbImage};
-use sketchslam_shared::{Point2, Pose2};
+use sketchslam_types::{Point2, Pose2};
 
 const FREE: Rgb<u8> = Rgb([255, 255, 255]);
 const WALL: Rgb<u8> = Rgb([200, 200, 200]);

@@ -13,12 +13,12 @@ use crate::run::{RunResult, Truth, read_trajectory_csv, score_artifacts, seen_wa
 use anyhow::{Context, Result, bail};
 use sketchslam_api::client::SketchslamClient;
 use sketchslam_api::types::{CreateSessionRequest, MappingMethod, SketchStart};
-use sketchslam_shared::Pose2;
+use sketchslam_engine::mapper::Method;
+use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
 use sketchslam_simulator::simulation::Simulation;
 use sketchslam_simulator::world::World;
-use sketchslam_slam::mapper::Method;
-use sketchslam_slam::sketch::SketchPose;
+use sketchslam_types::Pose2;
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};

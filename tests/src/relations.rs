@@ -15,7 +15,7 @@
 
 use crate::metrics::{self, StampedPose};
 use anyhow::{Context, Result, bail};
-use sketchslam_shared::{Pose2, wrap_angle};
+use sketchslam_types::{Pose2, wrap_angle};
 use std::path::Path;
 
 /// One relation: the reference pose at `t2_s` seen from the pose at `t1_s`.

@@ -15,9 +15,9 @@ use std::time::Duration;
 use anyhow::{Context, Result, ensure};
 use common::{TempDir, dump_log, start_service, wait_settled};
 use sketchslam_api::{CreateSessionRequest, MappingMethod, SessionState};
-use sketchslam_shared::ipc::{Delivery, IpcConfig, RobotPublisher};
-use sketchslam_shared::{Odometry, ScanHeader};
+use sketchslam_ipc::{Delivery, IpcConfig, RobotPublisher};
 use sketchslam_tests::processes::unique_prefix;
+use sketchslam_types::{Odometry, ScanHeader};
 
 /// Half sizes of the box room, meters; the robot starts at its centre.
 const HALF_X: f64 = 5.0;

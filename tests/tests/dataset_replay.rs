@@ -3,8 +3,8 @@
 //! identical map and scores the same relations. Skipped with a note when the shared data
 //! sets are not beside the checkout.
 
+use sketchslam_engine::mapper::Method;
 use sketchslam_simulator::dataset::{DATASET_FILE, Dataset};
-use sketchslam_slam::mapper::Method;
 use sketchslam_tests::dataset_run::{run_dataset_in_process, run_dataset_real_process};
 use std::path::Path;
 

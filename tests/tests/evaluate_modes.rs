@@ -2,8 +2,8 @@
 //! real `slam-service` and `simulator` processes (iceoryx2 lock-step + HTTP) must build the
 //! identical map, byte for byte, and score the same.
 
+use sketchslam_engine::mapper::Method;
 use sketchslam_simulator::scenario::Scenario;
-use sketchslam_slam::mapper::Method;
 use sketchslam_tests::processes::bundled_scenario;
 use sketchslam_tests::real_process::run_real_process;
 use sketchslam_tests::run::run_in_process;

@@ -5,10 +5,10 @@
 //! pauses now and then so that the lock-step publisher has to wait.
 
 use anyhow::{Result, anyhow};
-use sketchslam_shared::ipc::{Delivery, IpcConfig, RobotPublisher, RobotSubscriber};
-use sketchslam_shared::{Odometry, Scan, ScanHeader, SensorEvent};
+use sketchslam_ipc::{Delivery, IpcConfig, RobotPublisher, RobotSubscriber};
 use sketchslam_simulator::publish::{Pace, PublishOptions, publish_events};
 use sketchslam_tests::processes::unique_prefix;
+use sketchslam_types::{Odometry, Scan, ScanHeader, SensorEvent};
 use std::time::Duration;
 
 /// Scans at 20 Hz, odometry at 50 Hz (stamps coincide every 100 ms; odometry first then).

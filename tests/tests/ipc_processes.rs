@@ -4,10 +4,10 @@
 
 use anyhow::{Context, Result, bail};
 use serde_json::Value;
-use sketchslam_shared::SensorEvent;
-use sketchslam_shared::ipc::ranges_checksum;
+use sketchslam_ipc::ranges_checksum;
 use sketchslam_simulator::{Scenario, Simulation};
 use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario, unique_prefix};
+use sketchslam_types::SensorEvent;
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, channel};

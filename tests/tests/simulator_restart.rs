@@ -25,8 +25,8 @@ use common::{
     start_sketch_a_session, wait_session, wait_settled,
 };
 use sketchslam_api::SessionState;
+use sketchslam_engine::mapping::ros_export::{parse_map_yaml, parse_pgm};
 use sketchslam_simulator::world::World;
-use sketchslam_slam::grid_export::{parse_map_yaml, parse_pgm};
 use sketchslam_tests::metrics::{WallGrid, score_map, score_trajectory};
 use sketchslam_tests::processes::unique_prefix;
 use sketchslam_tests::run::{

@@ -1,31 +1,125 @@
-//! The sketchslam mapping engine: the method of Akiba et al., "Indoor SLAM based on line
-//! observation probability using a hand-drawn map", as pure functions over values.
+//! The slam-service runtime: the part of the crate that does I/O.
 //!
-//! Pipeline for one scan of a `sketch` session:
-//! 1. [`sketch`]: the uploaded drawing becomes stroke pixels and numbered lines (once);
-//! 2. MCL on the sketch with a per-particle scale localizes the robot on the drawing;
-//! 3. the line observation probability (eq. 4) picks the sketch lines really seen;
-//! 4. RANSAC lines of the scan are matched to them and correct the heading (eq. 5);
-//! 5. point-to-line ICP corrects the position (eq. 6);
-//! 6. the scan is fused into the occupancy grid.
+//! ```text
+//! HTTP (axum, tokio) ──▶ Registry (sessions + sketches, implements api::Backend)
+//!                             │ one Session per robot
+//!                             ▼
+//!   intake thread (iceoryx2 RobotSubscriber) ──bounded channel──▶ mapper thread (Mapper)
+//! ```
 //!
-//! Nothing here does I/O, spawns threads or reads clocks: random draws take an `Rng`.
+//! iceoryx2 handles never leave their intake thread; the async side only sees the registry,
+//! whose calls the router makes on tokio's blocking pool, and broadcast channels of events.
+//! [`run`] serves until its `shutdown` future completes, then stops every session (storing
+//! its map and trajectory under the data dir) before returning.
 
-pub mod correlative;
-pub mod error;
-pub mod grid;
-pub mod grid_export;
-pub mod icp;
-pub mod line_match;
-pub mod line_observation;
-pub mod loop_closure;
-pub mod mapper;
-pub mod mcl;
-pub mod pose_graph;
-pub mod ransac;
-pub mod recovery;
-pub mod runtime;
-pub mod sketch;
-pub mod wall_directions;
+pub mod config;
+pub mod intake;
+pub mod metrics;
+pub mod registry;
+pub mod session;
+pub mod storage;
 
-pub use error::EngineError;
+use std::future::Future;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use sketchslam_api::{RouterOptions, router};
+use thiserror::Error;
+use tokio::net::TcpListener;
+
+pub use config::{RegistryConfig, ServiceConfig};
+pub use registry::Registry;
+
+/// Why the service could not start or stopped with an error.
+#[derive(Debug, Error)]
+pub enum RuntimeError {
+    /// A setting is unusable.
+    #[error("invalid configuration: {0}")]
+    Config(String),
+    /// The data dir cannot be created or read.
+    #[error("data dir {path}: {source}")]
+    DataDir {
+        /// The data dir.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The listen address cannot be bound.
+    #[error("cannot listen on {addr}: {source}")]
+    Bind {
+        /// The address.
+        addr: SocketAddr,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The HTTP server failed.
+    #[error("HTTP server: {0}")]
+    Serve(std::io::Error),
+    /// A blocking task failed.
+    #[error("background task: {0}")]
+    Task(String),
+}
+
+/// Runs the service until `shutdown` completes: binds `config.listen`, serves the HTTP API
+/// over a [`Registry`] on `config.data_dir`, and on shutdown stops every session (so that
+/// SSE streams end and maps are stored) before the server drains.
+pub async fn run(
+    config: ServiceConfig,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> Result<(), RuntimeError> {
+    let listener = TcpListener::bind(config.listen)
+        .await
+        .map_err(|source| RuntimeError::Bind {
+            addr: config.listen,
+            source,
+        })?;
+    serve(listener, config, shutdown).await
+}
+
+/// [`run`] on an already bound listener (tests bind port 0 and read the address first).
+pub async fn serve(
+    listener: TcpListener,
+    config: ServiceConfig,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> Result<(), RuntimeError> {
+    let registry_config = RegistryConfig::from(&config);
+    let registry = tokio::task::spawn_blocking(move || Registry::open(registry_config))
+        .await
+        .map_err(|e| RuntimeError::Task(e.to_string()))??;
+    let registry = Arc::new(registry);
+    let app = router(
+        registry.clone(),
+        RouterOptions {
+            token: config.token.clone(),
+            max_body_bytes: config.max_body_bytes,
+        },
+    );
+    let addr = listener.local_addr().map_err(RuntimeError::Serve)?;
+    tracing::info!(
+        %addr,
+        data_dir = %config.data_dir.display(),
+        ipc_prefix = %config.ipc_prefix,
+        max_sessions = config.max_sessions,
+        auth = config.token.is_some(),
+        "slam-service listening"
+    );
+    let stopping = registry.clone();
+    let graceful = async move {
+        shutdown.await;
+        tracing::info!("shutting down: stopping sessions");
+        if let Err(e) = tokio::task::spawn_blocking(move || stopping.shutdown()).await {
+            tracing::error!(error = %e, "stopping sessions failed");
+        }
+    };
+    axum::serve(listener, app)
+        .with_graceful_shutdown(graceful)
+        .await
+        .map_err(RuntimeError::Serve)?;
+    // Sessions started while the server drained are stopped too.
+    tokio::task::spawn_blocking(move || registry.shutdown())
+        .await
+        .map_err(|e| RuntimeError::Task(e.to_string()))?;
+    tracing::info!("slam-service stopped");
+    Ok(())
+}

@@ -10,10 +10,10 @@ use axum::body::Bytes;
 use sketchslam_api::{
     ApiError, Backend, CreateSessionRequest, MappingMethod, SessionState, SketchStart,
 };
-use sketchslam_shared::ipc::{Delivery, IpcConfig, RobotPublisher};
-use sketchslam_shared::{Odometry, ScanHeader};
-use sketchslam_slam::runtime::{Registry, RegistryConfig};
-use sketchslam_slam::sketch::Sketch;
+use sketchslam_engine::sketch::Sketch;
+use sketchslam_ipc::{Delivery, IpcConfig, RobotPublisher};
+use sketchslam_slam::{Registry, RegistryConfig};
+use sketchslam_types::{Odometry, ScanHeader};
 
 /// A data dir removed on drop.
 struct TempDir(PathBuf);

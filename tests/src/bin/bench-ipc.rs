@@ -9,9 +9,9 @@
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use serde_json::json;
-use sketchslam_shared::ScanHeader;
-use sketchslam_shared::SensorEvent;
-use sketchslam_shared::ipc::{Delivery, IpcConfig, RobotPublisher, RobotSubscriber};
+use sketchslam_ipc::{Delivery, IpcConfig, RobotPublisher, RobotSubscriber};
+use sketchslam_types::ScanHeader;
+use sketchslam_types::SensorEvent;
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};

@@ -17,9 +17,9 @@
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
+use sketchslam_engine::mapper::Method;
 use sketchslam_simulator::dataset::{DATASET_FILE, Dataset};
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
-use sketchslam_slam::mapper::Method;
 use sketchslam_tests::dataset_run::{run_dataset_in_process, run_dataset_real_process};
 use sketchslam_tests::real_process::run_real_process;
 use sketchslam_tests::run::{RunResult, run_in_process, run_name};

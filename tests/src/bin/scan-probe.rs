@@ -10,8 +10,8 @@
 use anyhow::{Context, Result};
 use clap::Parser;
 use serde_json::json;
-use sketchslam_shared::SensorEvent;
-use sketchslam_shared::ipc::{IpcConfig, RobotSubscriber, ranges_checksum};
+use sketchslam_ipc::{IpcConfig, RobotSubscriber, ranges_checksum};
+use sketchslam_types::SensorEvent;
 use std::io::Write;
 use std::time::{Duration, Instant};
 
@@ -25,7 +25,7 @@ struct Args {
     #[arg(long)]
     robot: String,
     /// The iceoryx2 prefix.
-    #[arg(long, default_value = sketchslam_shared::DEFAULT_PREFIX)]
+    #[arg(long, default_value = sketchslam_types::DEFAULT_PREFIX)]
     ipc_prefix: String,
     /// Stop after this many scans.
     #[arg(long, default_value_t = u64::MAX)]

@@ -1,5 +1,5 @@
 //! `slam-service`: the sketchslam mapping service. A thin `main` over
-//! [`sketchslam_slam::runtime::run`]: flags (each also read from an environment variable),
+//! [`sketchslam_slam::run`]: flags (each also read from an environment variable),
 //! structured logs, a tokio runtime, and a clean shutdown on Ctrl-C or SIGTERM.
 
 use std::net::SocketAddr;
@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Parser;
-use sketchslam_slam::runtime::{ServiceConfig, run};
+use sketchslam_slam::{ServiceConfig, run};
 
 /// Builds metric maps from robots' LiDAR and odometry, with hand-drawn sketches as prior.
 #[derive(Debug, Parser)]
@@ -20,7 +20,7 @@ struct Args {
     #[arg(long, env = "SKETCHSLAM_DATA_DIR", default_value = "./data")]
     data_dir: PathBuf,
     /// iceoryx2 prefix shared with the robots' publishers (isolates parallel runs).
-    #[arg(long, env = "SKETCHSLAM_IPC_PREFIX", default_value = sketchslam_shared::DEFAULT_PREFIX)]
+    #[arg(long, env = "SKETCHSLAM_IPC_PREFIX", default_value = sketchslam_types::DEFAULT_PREFIX)]
     ipc_prefix: String,
     /// How many sessions may run at once.
     #[arg(long, env = "SKETCHSLAM_MAX_SESSIONS", default_value_t = 16)]

@@ -1,0 +1,9 @@
+//! The back end: keyframes, loop closures and the pose graph that straightens the map.
+//!
+//! Behind the front end of a `sketch` session: the mapper hands it a keyframe every half
+//! meter or so, and gets back either nothing or a correction of every keyframe:
+//! - [`loop_closure`]: keyframes, candidate search, verification, and when to optimize;
+//! - [`pose_graph`]: SE(2) Gauss–Newton with robust (Huber) edges.
+
+pub mod loop_closure;
+pub mod pose_graph;

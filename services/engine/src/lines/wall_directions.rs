@@ -1,0 +1,171 @@
+//! The drawing's wall directions as a heading reference that does not need MCL.
+//!
+//! The paper's premise is that a sketch's walls have the right directions even where its
+//! proportions are wrong. Eq. (5) uses it through the lines MCL says are in view, so it
+//! needs a sound localization on the drawing; when MCL is lost (long corridors, 180° scans
+//! seconds apart) the heading drifts and the map bends. This module keeps the premise
+//! without the localization: the drawing's *dominant* directions (length-weighted modes of
+//! its line angles, modulo π) are few — two for a rectangular building — and every long
+//! wall the robot sees should run along one of them. The mean difference between the
+//! scan's long lines (in the map frame) and their nearest dominant direction corrects the
+//! heading; the mapper gives it to the pose graph as a heading prior of each keyframe.
+//!
+//! Sits between the sketch side (its lines, once per drawing) and the loop-closure back end
+//! ([`crate::back_end::loop_closure`]), per keyframe.
+
+use crate::lines::matching::wrap_half_pi;
+use crate::lines::ransac::ScanLine;
+use crate::sketch::SketchLine;
+use std::f64::consts::PI;
+
+/// Half width of the window that gathers a direction's lines, radians.
+const CLUSTER_HALF_WIDTH_RAD: f64 = 7.5 * PI / 180.0;
+
+/// The dominant directions of a drawing's lines, radians in [0, π), strongest first: modes
+/// of the length-weighted angle distribution, each the length-weighted mean (on doubled
+/// angles, so 179° and 1° average to 0°) of the lines within 7.5° of it, kept while a mode
+/// holds at least `min_share` of the total length. O(lines · modes).
+pub fn dominant_directions(lines: &[SketchLine], min_share: f64) -> Vec<f64> {
+    let mut remaining: Vec<(f64, f64)> = lines
+        .iter()
+        .map(|l| (l.angle_rad, l.a.distance(&l.b)))
+        .filter(|(a, w)| a.is_finite() && w.is_finite() && *w > 0.0)
+        .collect();
+    let total: f64 = remaining.iter().map(|(_, w)| w).sum();
+    let mut directions = Vec::new();
+    while !remaining.is_empty() && total > 0.0 {
+        // The mode: the line whose ±7.5° window holds the most length.
+        let support = |centre: f64| -> f64 {
+            remaining
+                .iter()
+                .filter(|(a, _)| wrap_half_pi(a - centre).abs() <= CLUSTER_HALF_WIDTH_RAD)
+                .map(|(_, w)| w)
+                .sum()
+        };
+        let (centre, weight) = remaining.iter().map(|(a, _)| (*a, support(*a))).fold(
+            (0.0, f64::NEG_INFINITY),
+            |b, c| if c.1 > b.1 { c } else { b },
+        );
+        if weight < min_share * total {
+            break;
+        }
+        let (mut s, mut c) = (0.0, 0.0);
+        for (a, w) in &remaining {
+            if wrap_half_pi(a - centre).abs() <= CLUSTER_HALF_WIDTH_RAD {
+                s += w * (2.0 * a).sin();
+                c += w * (2.0 * a).cos();
+            }
+        }
+        let mean = (0.5 * s.atan2(c)).rem_euclid(PI);
+        directions.push(mean);
+        remaining.retain(|(a, _)| wrap_half_pi(a - centre).abs() > CLUSTER_HALF_WIDTH_RAD);
+    }
+    directions
+}
+
+/// Settings of [`heading_to_directions`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DirectionMatchConfig {
+    /// Scan lines shorter than this are left out, meters.
+    pub min_line_m: f64,
+    /// Lines farther than this from every dominant direction are other walls, radians.
+    pub tolerance_rad: f64,
+    /// Least total length of agreeing lines for a correction, meters.
+    pub min_support_m: f64,
+}
+
+impl Default for DirectionMatchConfig {
+    fn default() -> Self {
+        Self {
+            min_line_m: 1.0,
+            tolerance_rad: 8f64.to_radians(),
+            min_support_m: 3.0,
+        }
+    }
+}
+
+/// The heading correction that turns the scan's long lines (robot frame, seen from
+/// `heading_rad`) onto their nearest dominant direction: the length-weighted mean of
+/// `d − (θ + φ)` wrapped to (−π/2, π/2] over lines within the tolerance, the analogue of
+/// eq. (5) with the drawing's directions in place of the lines in view. `None` when too
+/// little wall length agrees.
+pub fn heading_to_directions(
+    scan_lines: &[ScanLine],
+    heading_rad: f64,
+    directions: &[f64],
+    config: &DirectionMatchConfig,
+) -> Option<f64> {
+    let (mut sum, mut weight) = (0.0, 0.0);
+    for line in scan_lines {
+        let length_m = line.length_m();
+        if length_m < config.min_line_m {
+            continue;
+        }
+        let angle = heading_rad + line.angle_rad;
+        let nearest = directions
+            .iter()
+            .map(|d| wrap_half_pi(d - angle))
+            .min_by(|a, b| a.abs().total_cmp(&b.abs()));
+        if let Some(r) = nearest.filter(|r| r.abs() <= config.tolerance_rad) {
+            sum += length_m * r;
+            weight += length_m;
+        }
+    }
+    (weight >= config.min_support_m && weight > 0.0).then(|| sum / weight)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sketchslam_types::Point2;
+
+    fn sketch_line(i: usize, a: (f64, f64), b: (f64, f64)) -> SketchLine {
+        SketchLine::new(i, Point2::new(a.0, a.1), Point2::new(b.0, b.1))
+    }
+
+    #[test]
+    fn a_wobbly_rectangle_has_two_directions() {
+        // Sides drawn 2° off either way (pixels, v downwards): they average out.
+        let t = 2f64.to_radians().tan();
+        let lines = [
+            sketch_line(0, (0.0, 0.0), (100.0, 100.0 * t)),
+            sketch_line(1, (0.0, 50.0), (100.0, 50.0 - 100.0 * t)),
+            sketch_line(2, (0.0, 0.0), (0.0, 50.0)),
+            sketch_line(3, (100.0, 0.0), (100.0, 50.0)),
+            sketch_line(4, (10.0, 10.0), (14.0, 14.0)), // a short diagonal scribble
+        ];
+        let d = dominant_directions(&lines, 0.1);
+        assert_eq!(d.len(), 2, "{d:?}");
+        // Horizontal first (200 px against 100 px), then vertical.
+        assert!(wrap_half_pi(d[0]).abs() < 1e-9, "{d:?}");
+        assert!((d[1] - PI / 2.0).abs() < 1e-9, "{d:?}");
+    }
+
+    #[test]
+    fn scan_walls_give_the_heading_error() {
+        // Walls along x and y seen from a heading believed to be 0 while the robot is
+        // really turned by +3°: in its frame the walls run at −3° and 87°.
+        let e = 3f64.to_radians();
+        let along = |angle: f64, len: f64| {
+            let (s, c) = angle.sin_cos();
+            ScanLine::from_endpoints(
+                Point2::new(0.0, 1.0),
+                Point2::new(len * c, 1.0 + len * s),
+                50,
+            )
+            .unwrap()
+        };
+        let lines = [along(-e, 4.0), along(PI / 2.0 - e, 2.0), along(0.7, 0.5)];
+        let d = [0.0, PI / 2.0];
+        let c = heading_to_directions(&lines, 0.0, &d, &DirectionMatchConfig::default()).unwrap();
+        // Correction +3°: the heading is 3° more than believed.
+        assert!((c - e).abs() < 1e-9, "{}", c.to_degrees());
+        // Too little wall: no correction.
+        assert!(
+            heading_to_directions(&lines[1..], 0.0, &d, &DirectionMatchConfig::default()).is_none()
+        );
+        // A wall 20° off every direction is not evidence.
+        let skew = [along(20f64.to_radians(), 5.0)];
+        assert!(heading_to_directions(&skew, 0.0, &d, &DirectionMatchConfig::default()).is_none());
+    }
+}

@@ -1,0 +1,354 @@
+//! The `sketch` method's per-scan step (the paper's Fig. 2 pipeline), between the mapper
+//! and the pure algorithms:
+//!
+//! 1. MCL on the drawing with scale: predict with the odometry increment (eq. 1–2), weigh
+//!    with the scan (eq. 3), detect breakdown and recover (section 3.2);
+//! 2. the sketch lines the robot really observes, by the line observation probability
+//!    (eq. 4) at the MCL estimate;
+//! 3. RANSAC lines of the scan matched to them; the mean angle difference corrects the
+//!    robot's heading in the map frame (eq. 5) — the map frame's axes are the drawing's, and
+//!    a drawing's walls have the right directions even where its proportions are wrong, so
+//!    the heading cannot drift;
+//! 4. point-to-line ICP with that heading held corrects the position (eq. 6), against the
+//!    map built so far or the previous scan (`MapperConfig::sketch_icp_reference`).
+
+use super::{IcpReference, MapperConfig};
+use crate::EngineError;
+use crate::lines::matching::{HeadingAggregate, MatchConfig, heading_correction, match_lines};
+use crate::lines::ransac::{RansacConfig, extract_lines};
+use crate::lines::wall_directions::{
+    DirectionMatchConfig, dominant_directions, heading_to_directions,
+};
+use crate::localization::line_observation::{
+    LineObservationConfig, observe_lines, observed_indices,
+};
+use crate::localization::mcl::{SketchMcl, StartSpread};
+use crate::localization::recovery::{
+    FailureConfig, FailureDetector, ObservationPoints, RecoveryConfig, recover_mcl,
+};
+use crate::mapping::grid::OccupancyGrid;
+use crate::scan_matching::icp::{Icp, IcpConfig, IcpMode};
+use crate::sketch::raycast::SketchRaycaster;
+use crate::sketch::{Sketch, SketchPose};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use sketchslam_types::{Point2, Pose2, Scan};
+use std::sync::Arc;
+
+use super::SketchPrior;
+
+/// Map points farther than this from the robot are left out of the ICP reference, meters.
+const ICP_REFERENCE_RADIUS_M: f64 = 50.0;
+
+/// The ICP reference is rebuilt after this many scans...
+const REFERENCE_REFRESH_SCANS: usize = 5;
+/// ...or once the robot is this far from where it was built, meters.
+const REFERENCE_REFRESH_M: f64 = 1.0;
+
+/// Spacing of the recovery's candidate observation points, meters at the guessed scale.
+const OBSERVATION_POINT_SPACING_M: f64 = 0.5;
+
+/// MCL score from which its estimate picks the sketch lines for eq. (5).
+const MIN_TRUSTED_SCORE: f64 = 0.6;
+
+/// Distinct sketch lines that must be matched before eq. (5) is used: one wall alone
+/// carries its own drawing error into the heading.
+const MIN_DISTINCT_LINES: usize = 2;
+
+/// Eq. (5) pairs farther than this from their median are left out of the mean, radians.
+const HEADING_INLIER_TOLERANCE_RAD: f64 = 0.1;
+
+/// A direction holding less than this share of the drawing's line length is not dominant.
+const MIN_DIRECTION_SHARE: f64 = 0.1;
+
+/// What one scan did to the sketch method's state.
+pub(super) struct TrackOutput {
+    /// Corrected pose in the map frame.
+    pub map_pose: Pose2,
+    /// MCL's estimate on the drawing.
+    pub sketch_pose: SketchPose,
+    /// Recoveries so far.
+    pub recoveries: u32,
+    /// Sketch lines observed at this scan.
+    pub lines_observed: usize,
+    /// MCL's localization score, 0..1.
+    pub localization_score: f64,
+}
+
+/// The `sketch` method's state.
+pub(super) struct SketchTracker {
+    sketch: Arc<Sketch>,
+    raycaster: SketchRaycaster,
+    mcl: SketchMcl,
+    detector: FailureDetector,
+    /// Candidate observation points of the recovery, computed at the first breakdown.
+    observation_points: Option<ObservationPoints>,
+    /// Spacing of those points, pixels.
+    observation_spacing_px: f64,
+    /// Lines observed at the last frame where MCL was sound.
+    last_good_lines: Vec<usize>,
+    rng: ChaCha8Rng,
+    observation: LineObservationConfig,
+    ransac: RansacConfig,
+    icp: IcpConfig,
+    reference_kind: IcpReference,
+    /// The ICP reference and the pose it was built around.
+    reference: Option<(Icp, Pose2)>,
+    scans_since_reference: usize,
+    /// Share of eq. (5)'s heading difference applied per scan (1 = the paper's hard
+    /// correction with translation-only ICP).
+    heading_gain: f64,
+    /// Heading differences within this band are taken as drawing error, radians.
+    heading_deadband_rad: f64,
+    /// The previous scan's points in the map frame.
+    previous_points: Vec<Point2>,
+    /// The drawing's dominant wall directions in the map frame, radians in [0, π).
+    directions: Vec<f64>,
+}
+
+impl SketchTracker {
+    /// A tracker on `prior`'s drawing, starting at its marked start and scale guess.
+    pub(super) fn new(prior: SketchPrior, config: &MapperConfig) -> Result<Self, EngineError> {
+        let start = prior.start;
+        let finite = start.u_px.is_finite()
+            && start.v_px.is_finite()
+            && start.heading_rad.is_finite()
+            && start.meters_per_pixel.is_finite();
+        if !finite || start.meters_per_pixel <= 0.0 {
+            return Err(EngineError::InvalidParameter {
+                name: "start",
+                reason: "the start and the scale must be finite, the scale positive".into(),
+            });
+        }
+        if !prior.sketch.contains(start.u_px, start.v_px) {
+            return Err(EngineError::InvalidParameter {
+                name: "start",
+                reason: format!(
+                    "({:.1}, {:.1}) is outside the {}×{} drawing",
+                    start.u_px, start.v_px, prior.sketch.width_px, prior.sketch.height_px
+                ),
+            });
+        }
+        if prior.sketch.lines.is_empty() {
+            return Err(EngineError::NoLines);
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
+        let raycaster = SketchRaycaster::new(&prior.sketch);
+        let mcl = SketchMcl::new(config.mcl.clone(), start, StartSpread::default(), &mut rng)?;
+        Ok(Self {
+            raycaster,
+            mcl,
+            detector: FailureDetector::new(FailureConfig::default()),
+            observation_points: None,
+            observation_spacing_px: (OBSERVATION_POINT_SPACING_M / start.meters_per_pixel).max(2.0),
+            last_good_lines: Vec::new(),
+            rng,
+            observation: LineObservationConfig::default(),
+            ransac: RansacConfig::default(),
+            icp: config.icp,
+            reference_kind: config.sketch_icp_reference,
+            reference: None,
+            scans_since_reference: 0,
+            heading_gain: config.sketch_heading_gain.clamp(0.0, 1.0),
+            heading_deadband_rad: config.sketch_heading_deadband_rad.max(0.0),
+            previous_points: Vec::new(),
+            directions: dominant_directions(&prior.sketch.lines, MIN_DIRECTION_SHARE),
+            sketch: prior.sketch,
+        })
+    }
+
+    /// MCL's current estimate on the drawing.
+    pub(super) fn sketch_pose(&self) -> SketchPose {
+        self.mcl.estimate()
+    }
+
+    /// One scan: `increment` is the odometry motion since the last scan (robot frame),
+    /// `predicted` the last corrected map pose carried forward by it.
+    pub(super) fn on_scan(
+        &mut self,
+        scan: &Scan,
+        points: &[Point2],
+        increment: Pose2,
+        _map_at_fix: Pose2,
+        predicted: Pose2,
+        grid: &OccupancyGrid,
+    ) -> TrackOutput {
+        // 1. MCL on the drawing (eq. 1–3, section 3.2).
+        self.mcl.predict(increment, &mut self.rng);
+        let outcome = self.mcl.update(scan, &self.raycaster);
+        let failed = outcome.beams > 0
+            && self
+                .detector
+                .detect_failure(&self.mcl.estimate(), outcome.score, &self.raycaster)
+                .is_some();
+        if failed {
+            let spacing = self.observation_spacing_px;
+            let points = self.observation_points.get_or_insert_with(|| {
+                ObservationPoints::precompute(&self.sketch, &self.raycaster, spacing)
+            });
+            let recovery = RecoveryConfig {
+                particles: self.mcl.particles().len(),
+                ..RecoveryConfig::default()
+            };
+            if recover_mcl(
+                &mut self.mcl,
+                points,
+                &self.last_good_lines,
+                &recovery,
+                &mut self.rng,
+            ) {
+                self.detector.reset();
+                // Weigh the new cloud with this scan before trusting its estimate.
+                self.mcl.update(scan, &self.raycaster);
+            }
+        }
+        let sketch_pose = self.mcl.estimate();
+
+        // 2. Lines really observed (eq. 4).
+        let observed = observed_indices(&observe_lines(
+            &sketch_pose,
+            scan,
+            &self.raycaster,
+            &self.observation,
+        ));
+        if !failed && !observed.is_empty() {
+            self.last_good_lines.clone_from(&observed);
+        }
+
+        // 3. Heading (eq. 5): the sketch lines are brought into the robot frame with the
+        // predicted map heading (the map frame's axes are the drawing's), so the correction
+        // is the heading's error, not MCL's.
+        let mut delta_rad = None;
+        // Only a sound localization on the drawing picks the right lines: a lost MCL
+        // pairs scan walls with the wrong sketch walls and would steer the heading.
+        let trusted = !failed && self.mcl.score() >= MIN_TRUSTED_SCORE;
+        if trusted && !observed.is_empty() && points.len() >= 10 {
+            let scan_lines = extract_lines(points, &self.ransac, &mut self.rng);
+            let lines: Vec<_> = observed.iter().map(|&i| self.sketch.lines[i]).collect();
+            let view = SketchPose {
+                heading_rad: predicted.heading_rad,
+                ..sketch_pose
+            };
+            let pairs = match_lines(&lines, &view, &scan_lines, &MatchConfig::default());
+            let aggregate = HeadingAggregate::InlierMean {
+                tolerance_rad: HEADING_INLIER_TOLERANCE_RAD,
+            };
+            let distinct = pairs
+                .iter()
+                .map(|p| p.sketch_index)
+                .collect::<std::collections::BTreeSet<_>>();
+            if distinct.len() >= MIN_DISTINCT_LINES {
+                delta_rad = heading_correction(&pairs, aggregate);
+            }
+        }
+
+        // 4. Position (eq. 6) by point-to-line ICP. With the paper's hard correction
+        // (gain 1) the heading of eq. (5) is held and ICP solves the translation only;
+        // with a gain below 1, ICP solves the full pose against the map and the sketch's
+        // heading pulls it by that fraction of eq. (5)'s difference per scan.
+        let hard = self.heading_gain >= 1.0;
+        let guess = match delta_rad {
+            Some(d) if hard => Pose2::new(predicted.x, predicted.y, predicted.heading_rad + d),
+            _ => predicted,
+        };
+        let mode = if hard {
+            IcpMode::TranslationOnly
+        } else {
+            IcpMode::Full
+        };
+        let aligned = self.align(grid, points, guess, mode);
+        let map_pose = match delta_rad {
+            // eq. (5)'s difference measured at the prediction, re-referred to the ICP heading.
+            Some(d) if !hard => {
+                let residual = predicted.heading_rad + d - aligned.heading_rad;
+                let residual = crate::lines::matching::wrap_half_pi(residual);
+                // Only the part beyond the drawing's own angular error is evidence of drift.
+                let excess =
+                    residual.signum() * (residual.abs() - self.heading_deadband_rad).max(0.0);
+                Pose2::new(
+                    aligned.x,
+                    aligned.y,
+                    aligned.heading_rad + self.heading_gain * excess,
+                )
+            }
+            _ => aligned,
+        };
+        self.previous_points = points.iter().map(|p| map_pose.transform_point(p)).collect();
+        self.scans_since_reference += 1;
+        TrackOutput {
+            map_pose,
+            sketch_pose,
+            recoveries: self.mcl.recoveries() as u32,
+            lines_observed: observed.len(),
+            localization_score: self.mcl.score(),
+        }
+    }
+
+    /// The map heading the drawing's dominant wall directions give a keyframe whose scan
+    /// `points` (robot frame) were taken at `pose`; see [`crate::lines::wall_directions`].
+    pub(super) fn heading_prior(&mut self, points: &[Point2], pose: &Pose2) -> Option<f64> {
+        if self.directions.is_empty() || points.len() < 10 {
+            return None;
+        }
+        let lines = extract_lines(points, &self.ransac, &mut self.rng);
+        let config = DirectionMatchConfig::default();
+        heading_to_directions(&lines, pose.heading_rad, &self.directions, &config)
+            .map(|correction| pose.heading_rad + correction)
+    }
+
+    /// The map frame was corrected (a loop closed): the scan just fused now lies at
+    /// `map_pose`, and the ICP reference, built on the old poses, is dropped.
+    pub(super) fn on_map_corrected(&mut self, points: &[Point2], map_pose: Pose2) {
+        self.previous_points = points.iter().map(|p| map_pose.transform_point(p)).collect();
+        self.reference = None;
+    }
+
+    /// Point-to-line ICP of the scan against the reference (map frame), from `guess`;
+    /// the guess itself when there is too little to align with or ICP does not converge.
+    fn align(
+        &mut self,
+        grid: &OccupancyGrid,
+        points: &[Point2],
+        guess: Pose2,
+        mode: IcpMode,
+    ) -> Pose2 {
+        if points.len() < 10 {
+            return guess;
+        }
+        let stale = self.reference.as_ref().is_none_or(|(_, at)| {
+            self.scans_since_reference >= REFERENCE_REFRESH_SCANS
+                || at.position().distance(&guess.position()) > REFERENCE_REFRESH_M
+        });
+        if stale {
+            let centre = guess.position();
+            let points = match self.reference_kind {
+                IcpReference::PreviousScan => self.previous_points.clone(),
+                IcpReference::Map => {
+                    let mut pts = crate::scan_matching::icp::reference_from_grid(
+                        grid,
+                        centre,
+                        ICP_REFERENCE_RADIUS_M,
+                    );
+                    // The grid holds the last scans only once their cells pass the
+                    // occupancy threshold: add the previous scan so a new area has support.
+                    pts.extend_from_slice(&self.previous_points);
+                    pts
+                }
+            };
+            self.reference = Some((Icp::new(&points, self.icp), guess));
+            self.scans_since_reference = 0;
+        }
+        let Some((icp, _)) = &self.reference else {
+            return guess;
+        };
+        if icp.len() < 10 {
+            return guess;
+        }
+        let result = icp.align(points, guess, mode);
+        if result.converged && result.pose.is_finite() {
+            result.pose
+        } else {
+            guess
+        }
+    }
+}

@@ -1,0 +1,412 @@
+//! Point-to-line ICP: step 5 of the pipeline (eq. 6, the position correction with the
+//! heading held from eq. 5) and the `icp` baseline (the paper's "conventional ICP-SLAM":
+//! frame-to-frame or scan-to-map ICP seeded by odometry, full SE(2)).
+//!
+//! Reference: points `q_j` (the previous frame's returns, or cells of the map built so far,
+//! see [`reference_from_grid`]) in a k-d tree (kiddo `ImmutableKdTree`), each with a normal
+//! `n_j` from PCA over its `normal_neighbours` nearest neighbours (the eigenvector of the
+//! smallest eigenvalue of their covariance; neighbourhoods that are not line-like, with
+//! `λ_min / λ_max > max_normal_eigen_ratio`, get no normal and are never matched).
+//!
+//! Alignment of source points `p_i` (robot frame) to find the pose `x = (t, θ)` of the robot
+//! in the reference frame minimises (eq. 6)
+//!
+//! `E(t, θ) = Σ_i ρ( n_jᵢ · (R(θ) p_i + t − q_jᵢ) )`
+//!
+//! with `q_jᵢ` the nearest reference point of the transformed `p_i` and ρ the Huber loss.
+//! Each iteration: nearest neighbours (O(n log m)), correspondences farther than the gate
+//! dropped, one Gauss-Newton step on the linearised residuals
+//! `r_i + J_i δ`, `J_i = [n_x, n_y, n · (R(θ + π/2) p_i)]` (the last column only in
+//! [`IcpMode::Full`]) solved by a damped 3×3 / 2×2 normal-equation system with iteratively
+//! reweighted Huber weights. The gate shrinks geometrically from `max_correspondence_m` to
+//! `min_correspondence_m` (factor `gate_shrink` per iteration); convergence when the step is
+//! below `convergence_translation_m` and `convergence_rotation_rad` with the gate at its
+//! floor (or after `max_iterations`). Degenerate directions (a corridor) are held near the
+//! initial guess by the small damping term.
+//!
+//! Cost: building O(m log m + m·k log m); aligning O(iterations · n log m).
+
+use crate::mapping::grid::OccupancyGrid;
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use sketchslam_types::{Point2, Pose2};
+use std::num::NonZero;
+
+/// ICP parameters. Lengths in meters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IcpConfig {
+    /// Iterations at most. Default 40.
+    pub max_iterations: usize,
+    /// Correspondence gate at the first iteration, meters. Default 1.0.
+    pub max_correspondence_m: f64,
+    /// Floor of the shrinking gate, meters. Default 0.2.
+    pub min_correspondence_m: f64,
+    /// Gate factor per iteration (0 < f ≤ 1). Default 0.75.
+    pub gate_shrink: f64,
+    /// Huber threshold on the point-to-line residual, meters. Default 0.05.
+    pub huber_m: f64,
+    /// Neighbours (the point included) for a reference normal. Default 8.
+    pub normal_neighbours: usize,
+    /// Neighbours farther than this from the point do not enter its normal. Default 0.5 m.
+    pub normal_radius_m: f64,
+    /// A reference point whose neighbourhood has `λ_min / λ_max` above this has no normal.
+    /// Default 0.3.
+    pub max_normal_eigen_ratio: f64,
+    /// Stop when the translation step is below this (and the rotation step below its
+    /// threshold). Default 1e-4 m.
+    pub convergence_translation_m: f64,
+    /// Rotation step threshold, radians. Default 1e-5.
+    pub convergence_rotation_rad: f64,
+    /// Fewer correspondences than this: no update, the result is not converged. Default 10.
+    pub min_inliers: usize,
+}
+
+impl Default for IcpConfig {
+    fn default() -> Self {
+        Self {
+            max_iterations: 40,
+            max_correspondence_m: 1.0,
+            min_correspondence_m: 0.2,
+            gate_shrink: 0.75,
+            huber_m: 0.05,
+            normal_neighbours: 8,
+            normal_radius_m: 0.5,
+            max_normal_eigen_ratio: 0.3,
+            convergence_translation_m: 1e-4,
+            convergence_rotation_rad: 1e-5,
+            min_inliers: 10,
+        }
+    }
+}
+
+/// Which parameters ICP estimates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum IcpMode {
+    /// Only the translation; the heading of the initial pose is held (eq. 6 after eq. 5).
+    TranslationOnly,
+    /// Translation and heading (the ICP baseline).
+    Full,
+}
+
+/// The outcome of [`Icp::align`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IcpResult {
+    /// The estimated pose of the source frame in the reference frame.
+    pub pose: Pose2,
+    /// Iterations run.
+    pub iterations: usize,
+    /// Correspondences within the final gate.
+    pub inliers: usize,
+    /// RMS point-to-line residual of those correspondences at `pose`, meters.
+    pub rms_m: f64,
+    /// True when the step fell below the convergence thresholds.
+    pub converged: bool,
+}
+
+/// A reference point set prepared for alignment: k-d tree and normals, built once.
+#[derive(Debug, Clone)]
+pub struct Icp {
+    config: IcpConfig,
+    points: Vec<Point2>,
+    /// Unit normal per point, `None` when its neighbourhood is not line-like.
+    normals: Vec<Option<Point2>>,
+    tree: Option<ImmutableKdTree<f64, 2>>,
+}
+
+/// Normal of the points `nb` (PCA): the eigenvector of the smaller eigenvalue of their
+/// covariance, with the eigenvalue ratio `λ_min / λ_max`.
+fn pca_normal(nb: &[Point2]) -> Option<(Point2, f64)> {
+    if nb.len() < 3 {
+        return None;
+    }
+    let n = nb.len() as f64;
+    let (mx, my) = nb.iter().fold((0.0, 0.0), |(a, b), p| (a + p.x, b + p.y));
+    let (mx, my) = (mx / n, my / n);
+    let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
+    for p in nb {
+        let (dx, dy) = (p.x - mx, p.y - my);
+        sxx += dx * dx;
+        syy += dy * dy;
+        sxy += dx * dy;
+    }
+    let half_tr = 0.5 * (sxx + syy);
+    let disc = (0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy).sqrt();
+    let (l_max, l_min) = (half_tr + disc, half_tr - disc);
+    if l_max.is_nan() || l_max <= 1e-18 {
+        return None;
+    }
+    let phi = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+    Some((Point2::new(-phi.sin(), phi.cos()), l_min.max(0.0) / l_max))
+}
+
+/// The occupied cells of `grid` within `radius_m` of `center` (all of them for an infinite
+/// radius): a scan-to-map ICP reference. O(cells of the bounding box).
+pub fn reference_from_grid(grid: &OccupancyGrid, center: Point2, radius_m: f64) -> Vec<Point2> {
+    if radius_m.is_infinite() && radius_m > 0.0 {
+        return grid.occupied_points();
+    }
+    if !(radius_m >= 0.0 && center.x.is_finite() && center.y.is_finite()) {
+        return Vec::new();
+    }
+    let (min, max) = (
+        Point2::new(center.x - radius_m, center.y - radius_m),
+        Point2::new(center.x + radius_m, center.y + radius_m),
+    );
+    let mut pts = grid.occupied_points_in_box(min, max);
+    pts.retain(|p| p.distance(&center) <= radius_m);
+    pts
+}
+
+impl Icp {
+    /// Prepares `reference_points` (non-finite ones dropped): k-d tree and normals.
+    /// Unusable configuration fields fall back to their defaults.
+    pub fn new(reference_points: &[Point2], config: IcpConfig) -> Self {
+        let config = sanitize(config);
+        let points: Vec<Point2> = reference_points
+            .iter()
+            .copied()
+            .filter(|p| p.x.is_finite() && p.y.is_finite() && p.x.abs() < 1e9 && p.y.abs() < 1e9)
+            .collect();
+        if points.is_empty() {
+            return Self {
+                config,
+                points,
+                normals: Vec::new(),
+                tree: None,
+            };
+        }
+        let coords: Vec<[f64; 2]> = points.iter().map(|p| [p.x, p.y]).collect();
+        let tree: ImmutableKdTree<f64, 2> = ImmutableKdTree::new_from_slice(&coords);
+        let k = NonZero::new(config.normal_neighbours.max(3)).unwrap_or(NonZero::<usize>::MIN);
+        let r2 = config.normal_radius_m * config.normal_radius_m;
+        let mut nb = Vec::with_capacity(k.get());
+        let normals = coords
+            .iter()
+            .map(|c| {
+                nb.clear();
+                for n in tree.nearest_n::<SquaredEuclidean>(c, k) {
+                    if n.distance <= r2 {
+                        nb.push(points[n.item as usize]);
+                    }
+                }
+                pca_normal(&nb)
+                    .filter(|(_, ratio)| *ratio <= config.max_normal_eigen_ratio)
+                    .map(|(n, _)| n)
+            })
+            .collect();
+        Self {
+            config,
+            points,
+            normals,
+            tree: Some(tree),
+        }
+    }
+
+    /// A scan-to-map reference from the map built so far: [`reference_from_grid`].
+    pub fn from_grid(
+        grid: &OccupancyGrid,
+        center: Point2,
+        radius_m: f64,
+        config: IcpConfig,
+    ) -> Self {
+        Self::new(&reference_from_grid(grid, center, radius_m), config)
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &IcpConfig {
+        &self.config
+    }
+
+    /// Number of reference points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// True when there is no reference point.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Number of reference points that have a normal (can be matched).
+    pub fn points_with_normal(&self) -> usize {
+        self.normals.iter().filter(|n| n.is_some()).count()
+    }
+
+    /// Aligns `points` (source frame, e.g. robot-frame scan returns) to the reference,
+    /// starting from `initial` (the source frame's pose in the reference frame); see the
+    /// module docs. Never fails: with no usable reference or too few correspondences the
+    /// initial pose comes back with `converged = false`. Non-finite source points are
+    /// ignored; a non-finite `initial` is returned unchanged.
+    pub fn align(&self, points: &[Point2], initial: Pose2, mode: IcpMode) -> IcpResult {
+        let c = &self.config;
+        let mut result = IcpResult {
+            pose: initial,
+            iterations: 0,
+            inliers: 0,
+            rms_m: f64::NAN,
+            converged: false,
+        };
+        let Some(tree) = &self.tree else {
+            return result;
+        };
+        if !initial.is_finite() {
+            return result;
+        }
+        let src: Vec<Point2> = points
+            .iter()
+            .copied()
+            .filter(|p| p.x.is_finite() && p.y.is_finite() && p.x.abs() < 1e9 && p.y.abs() < 1e9)
+            .collect();
+        let (mut tx, mut ty, mut th) = (initial.x, initial.y, initial.heading_rad);
+        let mut gate = c.max_correspondence_m;
+        let mut pairs: Vec<(Point2, Point2, Point2)> = Vec::with_capacity(src.len());
+        for it in 0..c.max_iterations {
+            result.iterations = it + 1;
+            self.correspondences(tree, &src, tx, ty, th, gate, &mut pairs);
+            if pairs.len() < c.min_inliers {
+                break;
+            }
+            let Some((dx, dy, dth)) = gauss_newton_step(&pairs, (tx, ty, th), c.huber_m, mode)
+            else {
+                break;
+            };
+            tx += dx;
+            ty += dy;
+            th += dth;
+            let at_floor = gate <= c.min_correspondence_m;
+            gate = (gate * c.gate_shrink).max(c.min_correspondence_m);
+            if dx.hypot(dy) < c.convergence_translation_m
+                && dth.abs() < c.convergence_rotation_rad
+                && at_floor
+            {
+                result.converged = true;
+                break;
+            }
+        }
+        // Final statistics at the final pose and gate.
+        self.correspondences(tree, &src, tx, ty, th, gate, &mut pairs);
+        result.pose = Pose2::new(tx, ty, th);
+        result.inliers = pairs.len();
+        if !pairs.is_empty() {
+            let (s, co) = th.sin_cos();
+            let ss: f64 = pairs
+                .iter()
+                .map(|(p, q, n)| {
+                    let x = Point2::new(co * p.x - s * p.y + tx, s * p.x + co * p.y + ty);
+                    let r = n.x * (x.x - q.x) + n.y * (x.y - q.y);
+                    r * r
+                })
+                .sum();
+            result.rms_m = (ss / pairs.len() as f64).sqrt();
+        }
+        result
+    }
+
+    /// Fills `pairs` with (source point, reference point, reference normal) for the source
+    /// points whose nearest reference point (after the transform) is within `gate` and has
+    /// a normal.
+    #[allow(clippy::too_many_arguments)]
+    fn correspondences(
+        &self,
+        tree: &ImmutableKdTree<f64, 2>,
+        src: &[Point2],
+        tx: f64,
+        ty: f64,
+        th: f64,
+        gate: f64,
+        pairs: &mut Vec<(Point2, Point2, Point2)>,
+    ) {
+        pairs.clear();
+        let (s, c) = th.sin_cos();
+        let g2 = gate * gate;
+        for p in src {
+            let x = [c * p.x - s * p.y + tx, s * p.x + c * p.y + ty];
+            let nn = tree.nearest_one::<SquaredEuclidean>(&x);
+            if nn.distance > g2 {
+                continue;
+            }
+            let j = nn.item as usize;
+            if let (Some(q), Some(Some(n))) = (self.points.get(j), self.normals.get(j)) {
+                pairs.push((*p, *q, *n));
+            }
+        }
+    }
+}
+
+/// One damped Gauss-Newton step with Huber weights (IRLS) on the point-to-line residuals
+/// `r = n · (R(θ) p + t − q)` at the pose `(tx, ty, th)`; returns `(δx, δy, δθ)`
+/// (δθ = 0 in translation-only mode). `None` when the system cannot be solved.
+fn gauss_newton_step(
+    pairs: &[(Point2, Point2, Point2)],
+    (tx, ty, th): (f64, f64, f64),
+    huber_m: f64,
+    mode: IcpMode,
+) -> Option<(f64, f64, f64)> {
+    let (s, c) = th.sin_cos();
+    let mut h = nalgebra::Matrix3::<f64>::zeros();
+    let mut g = nalgebra::Vector3::<f64>::zeros();
+    for (p, q, n) in pairs {
+        let rp = Point2::new(c * p.x - s * p.y, s * p.x + c * p.y);
+        // Eq. (6): the point-to-line residual.
+        let r = n.x * (rp.x + tx - q.x) + n.y * (rp.y + ty - q.y);
+        // ∂(R p)/∂θ = R(θ + π/2) p = (−(Rp)_y, (Rp)_x).
+        let j = nalgebra::Vector3::new(n.x, n.y, n.x * -rp.y + n.y * rp.x);
+        let w = if r.abs() <= huber_m {
+            1.0
+        } else {
+            huber_m / r.abs()
+        };
+        h += w * j * j.transpose();
+        g += w * r * j;
+    }
+    // Small Levenberg damping keeps unobservable directions (a corridor's axis) near the
+    // current estimate instead of making the system singular.
+    let damping = 1e-6 * (h[(0, 0)] + h[(1, 1)]).max(1e-9);
+    let step = match mode {
+        IcpMode::TranslationOnly => {
+            let h2 = nalgebra::Matrix2::new(
+                h[(0, 0)] + damping,
+                h[(0, 1)],
+                h[(1, 0)],
+                h[(1, 1)] + damping,
+            );
+            let d = h2.cholesky()?.solve(&nalgebra::Vector2::new(-g[0], -g[1]));
+            (d[0], d[1], 0.0)
+        }
+        IcpMode::Full => {
+            let mut h3 = h;
+            for i in 0..3 {
+                h3[(i, i)] += damping;
+            }
+            let d = h3.cholesky()?.solve(&(-g));
+            (d[0], d[1], d[2])
+        }
+    };
+    (step.0.is_finite() && step.1.is_finite() && step.2.is_finite()).then_some(step)
+}
+
+fn sanitize(c: IcpConfig) -> IcpConfig {
+    let d = IcpConfig::default();
+    let pos = |v: f64, def: f64| if v.is_finite() && v > 0.0 { v } else { def };
+    let min_gate = pos(c.min_correspondence_m, d.min_correspondence_m);
+    IcpConfig {
+        max_iterations: c.max_iterations,
+        max_correspondence_m: pos(c.max_correspondence_m, d.max_correspondence_m).max(min_gate),
+        min_correspondence_m: min_gate,
+        gate_shrink: if c.gate_shrink > 0.0 && c.gate_shrink <= 1.0 {
+            c.gate_shrink
+        } else {
+            d.gate_shrink
+        },
+        huber_m: pos(c.huber_m, d.huber_m),
+        normal_neighbours: c.normal_neighbours.clamp(3, 64),
+        normal_radius_m: pos(c.normal_radius_m, d.normal_radius_m),
+        max_normal_eigen_ratio: if c.max_normal_eigen_ratio.is_finite() {
+            c.max_normal_eigen_ratio.clamp(0.0, 1.0)
+        } else {
+            d.max_normal_eigen_ratio
+        },
+        convergence_translation_m: pos(c.convergence_translation_m, d.convergence_translation_m),
+        convergence_rotation_rad: pos(c.convergence_rotation_rad, d.convergence_rotation_rad),
+        min_inliers: c.min_inliers.max(3),
+    }
+}

@@ -1,0 +1,9 @@
+//! Scan matching: a scan's pose against reference points.
+//!
+//! Used by the front end (point-to-line ICP, eq. 6, after the heading of eq. 5) and by the
+//! back end (correlative search of loop-closure candidates, refined by ICP):
+//! - [`icp`]: point-to-line ICP on a k-d tree, full or translation-only;
+//! - [`correlative`]: Olson's correlative scan matching with branch and bound.
+
+pub mod correlative;
+pub mod icp;

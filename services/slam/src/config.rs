@@ -1,0 +1,64 @@
+//! The service's settings, as `run` takes them (the binary fills them from flags and
+//! environment variables).
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+
+use sketchslam_engine::mapper::MapperConfig;
+
+/// Everything [`super::run`] needs.
+#[derive(Debug, Clone)]
+pub struct ServiceConfig {
+    /// Where the HTTP API listens; loopback by default.
+    pub listen: SocketAddr,
+    /// Where sketches and stopped sessions are kept.
+    pub data_dir: PathBuf,
+    /// The iceoryx2 prefix shared with the robots' publishers.
+    pub ipc_prefix: String,
+    /// How many sessions may run at once.
+    pub max_sessions: usize,
+    /// When set, every request except `/healthz` needs `Authorization: Bearer <token>`.
+    pub token: Option<String>,
+    /// The largest accepted request body, bytes.
+    pub max_body_bytes: usize,
+    /// Settings of every session's mapper.
+    pub mapper: MapperConfig,
+}
+
+impl Default for ServiceConfig {
+    fn default() -> Self {
+        Self {
+            listen: SocketAddr::from(([127, 0, 0, 1], 8080)),
+            data_dir: PathBuf::from("./data"),
+            ipc_prefix: sketchslam_types::DEFAULT_PREFIX.to_string(),
+            max_sessions: 16,
+            token: None,
+            max_body_bytes: sketchslam_api::DEFAULT_MAX_BODY_BYTES,
+            mapper: MapperConfig::default(),
+        }
+    }
+}
+
+/// The part of [`ServiceConfig`] the session registry uses.
+#[derive(Debug, Clone)]
+pub struct RegistryConfig {
+    /// Where sketches and stopped sessions are kept.
+    pub data_dir: PathBuf,
+    /// The iceoryx2 prefix.
+    pub ipc_prefix: String,
+    /// How many sessions may run at once.
+    pub max_sessions: usize,
+    /// Settings of every session's mapper.
+    pub mapper: MapperConfig,
+}
+
+impl From<&ServiceConfig> for RegistryConfig {
+    fn from(c: &ServiceConfig) -> Self {
+        Self {
+            data_dir: c.data_dir.clone(),
+            ipc_prefix: c.ipc_prefix.clone(),
+            max_sessions: c.max_sessions,
+            mapper: c.mapper.clone(),
+        }
+    }
+}

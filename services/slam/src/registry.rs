@@ -1,0 +1,593 @@
+//! The session registry: sketches and sessions, running and stopped; implements the API's
+//! [`Backend`].
+//!
+//! Locks are held only to look entries up or swap them; decoding sketches, starting and
+//! stopping sessions and rendering maps happen outside them.
+
+use std::collections::{BTreeMap, HashSet};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+
+use axum::body::Bytes;
+use sketchslam_api::router::escape_label;
+use sketchslam_api::{
+    ApiError, Backend, CreateSessionRequest, MappingMethod, OccupancyGridResponse, PixelPoint,
+    PoseResponse, SessionEvent, SessionInfo, SessionState, SketchInfo, SketchLineInfo,
+    SketchSummary, TrajectoryPointInfo, TrajectoryResponse,
+};
+use sketchslam_ipc::IpcConfig;
+use tokio::sync::broadcast;
+
+use super::RuntimeError;
+use super::config::RegistryConfig;
+use super::metrics::Histogram;
+use super::session::{Session, lock, now_unix_ms};
+use super::storage::{SessionMeta, SketchMeta, Storage};
+use sketchslam_engine::EngineError;
+use sketchslam_engine::mapper::{Mapper, Method, SketchPrior};
+use sketchslam_engine::sketch::overlay::{encode_png, render_overlay};
+use sketchslam_engine::sketch::{Sketch, SketchPose};
+
+/// A stored sketch, processed.
+struct StoredSketch {
+    info: SketchInfo,
+    sketch: Arc<Sketch>,
+}
+
+enum Entry {
+    Live(Arc<Session>),
+    Stopped(Box<SessionMeta>),
+}
+
+impl Entry {
+    fn info(&self) -> SessionInfo {
+        match self {
+            Entry::Live(s) => s.info(),
+            Entry::Stopped(m) => m.info.clone(),
+        }
+    }
+}
+
+#[derive(Default)]
+struct Sessions {
+    entries: BTreeMap<String, Entry>,
+    /// Robots whose session is being started (not yet in `entries`).
+    starting: HashSet<String>,
+}
+
+/// Sketches and sessions of one service.
+pub struct Registry {
+    config: RegistryConfig,
+    ipc: IpcConfig,
+    storage: Storage,
+    histogram: Arc<Histogram>,
+    sketches: Mutex<BTreeMap<String, Arc<StoredSketch>>>,
+    sessions: Mutex<Sessions>,
+    closing: AtomicBool,
+}
+
+fn sketch_info(meta: &SketchMeta, sketch: &Sketch) -> SketchInfo {
+    SketchInfo {
+        id: meta.id.clone(),
+        name: meta.name.clone(),
+        width_px: sketch.width_px,
+        height_px: sketch.height_px,
+        created_unix_ms: meta.created_unix_ms,
+        lines: sketch
+            .lines
+            .iter()
+            .map(|l| SketchLineInfo {
+                index: l.index,
+                a: PixelPoint { u: l.a.x, v: l.a.y },
+                b: PixelPoint { u: l.b.x, v: l.b.y },
+                angle_deg: l.angle_rad.to_degrees(),
+                length_px: l.length_px(),
+            })
+            .collect(),
+    }
+}
+
+fn image_error(e: EngineError) -> ApiError {
+    match e {
+        EngineError::ImageTooLarge(m) => ApiError::too_large("image_too_large", m),
+        EngineError::NoStrokes => ApiError::invalid(
+            "no_lines",
+            "no strokes found in the drawing: draw walls dark on light (or light on dark)",
+        ),
+        EngineError::NoLines => {
+            ApiError::invalid("no_lines", "no straight lines found in the drawing")
+        }
+        EngineError::ImageDecode(m) => ApiError::invalid(
+            "invalid_image",
+            format!("the body is not a PNG or JPEG image that decodes: {m}"),
+        ),
+        other => ApiError::invalid("invalid_image", other.to_string()),
+    }
+}
+
+fn method_of(m: MappingMethod) -> Method {
+    match m {
+        MappingMethod::Sketch => Method::Sketch,
+        MappingMethod::Icp => Method::Icp,
+        MappingMethod::Odometry => Method::Odometry,
+    }
+}
+
+/// Parses a stored `trajectory.csv`.
+fn parse_trajectory(session_id: &str, csv: &str) -> Result<TrajectoryResponse, ApiError> {
+    let mut points = Vec::new();
+    for (i, line) in csv.lines().enumerate().skip(1) {
+        let v: Vec<f64> = line
+            .split(',')
+            .map(|f| f.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| ApiError::internal(format!("trajectory.csv line {}: {e}", i + 1)))?;
+        let [t, x, y, theta] = v[..] else {
+            return Err(ApiError::internal(format!(
+                "trajectory.csv line {}: expected 4 fields",
+                i + 1
+            )));
+        };
+        points.push(TrajectoryPointInfo { t, x, y, theta });
+    }
+    Ok(TrajectoryResponse {
+        session_id: session_id.to_string(),
+        points,
+    })
+}
+
+impl Registry {
+    /// Opens the data dir and loads what a previous run stored.
+    pub fn open(config: RegistryConfig) -> Result<Registry, RuntimeError> {
+        let ipc = IpcConfig::new(&config.ipc_prefix)
+            .map_err(|e| RuntimeError::Config(format!("ipc prefix: {e}")))?;
+        let storage = Storage::open(&config.data_dir).map_err(|e| RuntimeError::DataDir {
+            path: config.data_dir.clone(),
+            source: e,
+        })?;
+        let data_dir_err = |e| RuntimeError::DataDir {
+            path: config.data_dir.clone(),
+            source: e,
+        };
+        let mut sketches = BTreeMap::new();
+        for (meta, image) in storage.load_sketches().map_err(data_dir_err)? {
+            match Sketch::from_image_bytes(&image) {
+                Ok(sketch) => {
+                    let info = sketch_info(&meta, &sketch);
+                    sketches.insert(
+                        meta.id.clone(),
+                        Arc::new(StoredSketch {
+                            info,
+                            sketch: Arc::new(sketch),
+                        }),
+                    );
+                }
+                Err(e) => tracing::warn!(id = %meta.id, error = %e, "skipping stored sketch"),
+            }
+        }
+        let mut sessions = Sessions::default();
+        for meta in storage.load_sessions().map_err(data_dir_err)? {
+            sessions
+                .entries
+                .insert(meta.info.id.clone(), Entry::Stopped(Box::new(meta)));
+        }
+        tracing::info!(
+            data_dir = %config.data_dir.display(),
+            sketches = sketches.len(),
+            sessions = sessions.entries.len(),
+            "registry opened"
+        );
+        Ok(Registry {
+            config,
+            ipc,
+            storage,
+            histogram: Arc::new(Histogram::default()),
+            sketches: Mutex::new(sketches),
+            sessions: Mutex::new(sessions),
+            closing: AtomicBool::new(false),
+        })
+    }
+
+    fn sketch(&self, id: &str) -> Result<Arc<StoredSketch>, ApiError> {
+        lock(&self.sketches)
+            .get(id)
+            .cloned()
+            .ok_or_else(|| ApiError::sketch_not_found(id))
+    }
+
+    fn live(&self, id: &str) -> Result<Result<Arc<Session>, Box<SessionMeta>>, ApiError> {
+        match lock(&self.sessions).entries.get(id) {
+            Some(Entry::Live(s)) => Ok(Ok(s.clone())),
+            Some(Entry::Stopped(m)) => Ok(Err(m.clone())),
+            None => Err(ApiError::session_not_found(id)),
+        }
+    }
+
+    fn stored_file(&self, id: &str, name: &str) -> Result<Vec<u8>, ApiError> {
+        self.storage
+            .read_session_file(id, name)
+            .map_err(|e| ApiError::internal(format!("reading {name} of session {id}: {e}")))
+    }
+
+    /// Stops every running session (storing its map) and refuses new ones.
+    pub fn shutdown(&self) {
+        self.closing.store(true, Ordering::SeqCst);
+        let ids: Vec<String> = lock(&self.sessions)
+            .entries
+            .iter()
+            .filter(|(_, e)| matches!(e, Entry::Live(_)))
+            .map(|(id, _)| id.clone())
+            .collect();
+        std::thread::scope(|scope| {
+            for id in &ids {
+                scope.spawn(move || {
+                    if let Err(e) = self.stop_session(id) {
+                        tracing::error!(session = %id, error = %e, "stopping at shutdown failed");
+                    }
+                });
+            }
+        });
+        tracing::info!(stopped = ids.len(), "registry shut down");
+    }
+
+    fn start_session(&self, request: &CreateSessionRequest, id: &str) -> Result<Session, ApiError> {
+        let method = method_of(request.method);
+        let prior = match request.method {
+            MappingMethod::Sketch => {
+                let sketch_id = request.sketch_id.as_deref().unwrap_or_default();
+                let stored = self.sketch(sketch_id)?;
+                let start = request
+                    .start
+                    .ok_or_else(|| ApiError::invalid("missing_field", "start: required"))?;
+                let sketch = &stored.sketch;
+                if !sketch.contains(start.u, start.v) {
+                    return Err(ApiError::invalid(
+                        "invalid_start",
+                        format!(
+                            "start: ({}, {}) lies outside the sketch ({} × {} px)",
+                            start.u, start.v, sketch.width_px, sketch.height_px
+                        ),
+                    ));
+                }
+                let (col, row) = (start.u as usize, start.v as usize);
+                if sketch
+                    .strokes
+                    .get(row * sketch.width_px as usize + col)
+                    .copied()
+                    .unwrap_or(false)
+                {
+                    return Err(ApiError::invalid(
+                        "invalid_start",
+                        format!(
+                            "start: ({}, {}) lies on a drawn wall; mark the start in free space",
+                            start.u, start.v
+                        ),
+                    ));
+                }
+                Some(SketchPrior {
+                    sketch: sketch.clone(),
+                    start: SketchPose {
+                        u_px: start.u,
+                        v_px: start.v,
+                        heading_rad: start.heading_deg.to_radians(),
+                        meters_per_pixel: request.meters_per_pixel.unwrap_or_default(),
+                    },
+                })
+            }
+            MappingMethod::Icp | MappingMethod::Odometry => None,
+        };
+        let mut mapper_config = self.config.mapper.clone();
+        if let Some(seed) = request.seed {
+            mapper_config.seed = seed;
+        }
+        let mapper = Mapper::new(method, prior, mapper_config).map_err(|e| match e {
+            EngineError::InvalidParameter { name, reason } => {
+                ApiError::invalid("invalid_parameter", format!("{name}: {reason}"))
+            }
+            other => ApiError::internal(other),
+        })?;
+        let info = SessionInfo {
+            id: id.to_string(),
+            robot_id: request.robot_id.clone(),
+            method: request.method,
+            sketch_id: request.sketch_id.clone(),
+            start: request.start,
+            meters_per_pixel_guess: request.meters_per_pixel,
+            state: SessionState::WaitingForData,
+            scans_processed: 0,
+            scans_lost: 0,
+            publisher_restarts: 0,
+            localization_score: 0.0,
+            recoveries: 0,
+            loop_closures: 0,
+            estimated_meters_per_pixel: request.meters_per_pixel,
+            last_error: None,
+            created_unix_ms: now_unix_ms(),
+            stopped_unix_ms: None,
+        };
+        Session::start(info, mapper, self.ipc.clone(), self.histogram.clone())
+    }
+}
+
+impl Backend for Registry {
+    fn create_sketch(&self, name: Option<String>, image: Bytes) -> Result<SketchInfo, ApiError> {
+        let sketch = Sketch::from_image_bytes(&image).map_err(image_error)?;
+        let meta = SketchMeta {
+            id: uuid::Uuid::new_v4().to_string(),
+            name,
+            created_unix_ms: now_unix_ms(),
+        };
+        self.storage
+            .save_sketch(&meta, &image)
+            .map_err(|e| ApiError::internal(format!("storing sketch {}: {e}", meta.id)))?;
+        let info = sketch_info(&meta, &sketch);
+        tracing::info!(id = %meta.id, lines = info.lines.len(), "sketch stored");
+        lock(&self.sketches).insert(
+            meta.id.clone(),
+            Arc::new(StoredSketch {
+                info: info.clone(),
+                sketch: Arc::new(sketch),
+            }),
+        );
+        Ok(info)
+    }
+
+    fn list_sketches(&self) -> Result<Vec<SketchSummary>, ApiError> {
+        let mut list: Vec<SketchSummary> = lock(&self.sketches)
+            .values()
+            .map(|s| s.info.summary())
+            .collect();
+        list.sort_by(|a, b| (a.created_unix_ms, &a.id).cmp(&(b.created_unix_ms, &b.id)));
+        Ok(list)
+    }
+
+    fn get_sketch(&self, id: &str) -> Result<SketchInfo, ApiError> {
+        Ok(self.sketch(id)?.info.clone())
+    }
+
+    fn sketch_overlay_png(&self, id: &str) -> Result<Vec<u8>, ApiError> {
+        let stored = self.sketch(id)?;
+        Ok(encode_png(&render_overlay(&stored.sketch)))
+    }
+
+    fn delete_sketch(&self, id: &str) -> Result<(), ApiError> {
+        let removed = lock(&self.sketches).remove(id);
+        if removed.is_none() {
+            return Err(ApiError::sketch_not_found(id));
+        }
+        self.storage
+            .delete_sketch(id)
+            .map_err(|e| ApiError::internal(format!("deleting sketch {id}: {e}")))?;
+        tracing::info!(%id, "sketch deleted");
+        Ok(())
+    }
+
+    fn create_session(&self, request: CreateSessionRequest) -> Result<SessionInfo, ApiError> {
+        if self.closing.load(Ordering::SeqCst) {
+            return Err(ApiError::Unavailable("the service is shutting down".into()));
+        }
+        // Cheap checks first, so a bad request never touches the robot's services.
+        if request.method == MappingMethod::Sketch {
+            self.sketch(request.sketch_id.as_deref().unwrap_or_default())?;
+        }
+        {
+            let mut sessions = lock(&self.sessions);
+            let busy = sessions.starting.contains(&request.robot_id)
+                || sessions.entries.values().any(|e| match e {
+                    Entry::Live(s) => s.robot_id == request.robot_id,
+                    Entry::Stopped(_) => false,
+                });
+            if busy {
+                return Err(ApiError::conflict(
+                    "robot_busy",
+                    format!(
+                        "robot {:?} is already in a running session; stop it first",
+                        request.robot_id
+                    ),
+                ));
+            }
+            let running = sessions
+                .entries
+                .values()
+                .filter(|e| matches!(e, Entry::Live(_)))
+                .count()
+                + sessions.starting.len();
+            if running >= self.config.max_sessions {
+                return Err(ApiError::conflict(
+                    "too_many_sessions",
+                    format!(
+                        "{running} sessions are running, the limit is {}",
+                        self.config.max_sessions
+                    ),
+                ));
+            }
+            sessions.starting.insert(request.robot_id.clone());
+        }
+        let id = uuid::Uuid::new_v4().to_string();
+        let started = self.start_session(&request, &id);
+        let mut sessions = lock(&self.sessions);
+        sessions.starting.remove(&request.robot_id);
+        let session = started?;
+        let info = session.info();
+        sessions.entries.insert(id, Entry::Live(Arc::new(session)));
+        Ok(info)
+    }
+
+    fn list_sessions(&self) -> Result<Vec<SessionInfo>, ApiError> {
+        let mut list: Vec<SessionInfo> = lock(&self.sessions)
+            .entries
+            .values()
+            .map(Entry::info)
+            .collect();
+        list.sort_by(|a, b| (a.created_unix_ms, &a.id).cmp(&(b.created_unix_ms, &b.id)));
+        Ok(list)
+    }
+
+    fn get_session(&self, id: &str) -> Result<SessionInfo, ApiError> {
+        lock(&self.sessions)
+            .entries
+            .get(id)
+            .map(Entry::info)
+            .ok_or_else(|| ApiError::session_not_found(id))
+    }
+
+    fn stop_session(&self, id: &str) -> Result<SessionInfo, ApiError> {
+        let session = match self.live(id)? {
+            Ok(session) => session,
+            Err(meta) => return Ok(meta.info),
+        };
+        let (meta, files) = session.finish();
+        self.storage
+            .save_session(&meta, &files)
+            .map_err(|e| ApiError::internal(format!("storing session {id}: {e}")))?;
+        let info = meta.info.clone();
+        lock(&self.sessions)
+            .entries
+            .insert(id.to_string(), Entry::Stopped(Box::new(meta)));
+        Ok(info)
+    }
+
+    fn pose(&self, id: &str) -> Result<PoseResponse, ApiError> {
+        Ok(match self.live(id)? {
+            Ok(s) => s.pose(),
+            Err(meta) => meta.pose,
+        })
+    }
+
+    fn trajectory(&self, id: &str) -> Result<TrajectoryResponse, ApiError> {
+        match self.live(id)? {
+            Ok(s) => Ok(s.trajectory()),
+            Err(_) => {
+                let csv = self.stored_file(id, "trajectory.csv")?;
+                parse_trajectory(id, &String::from_utf8_lossy(&csv))
+            }
+        }
+    }
+
+    fn map_png(&self, id: &str) -> Result<Vec<u8>, ApiError> {
+        match self.live(id)? {
+            Ok(s) => Ok(s.grid().to_png()),
+            Err(_) => self.stored_file(id, "map.png"),
+        }
+    }
+
+    fn map_pgm(&self, id: &str) -> Result<Vec<u8>, ApiError> {
+        match self.live(id)? {
+            Ok(s) => Ok(s.grid().to_pgm()),
+            Err(_) => self.stored_file(id, "map.pgm"),
+        }
+    }
+
+    fn map_yaml(&self, id: &str) -> Result<String, ApiError> {
+        match self.live(id)? {
+            Ok(s) => Ok(s.grid().to_yaml("map.pgm")),
+            Err(_) => Ok(String::from_utf8_lossy(&self.stored_file(id, "map.yaml")?).into_owned()),
+        }
+    }
+
+    fn map_occupancy(&self, id: &str) -> Result<OccupancyGridResponse, ApiError> {
+        match self.live(id)? {
+            Ok(s) => Ok(super::session::occupancy_response(id, &s.grid())),
+            Err(_) => serde_json::from_slice(&self.stored_file(id, "map.json")?)
+                .map_err(|e| ApiError::internal(format!("map.json of session {id}: {e}"))),
+        }
+    }
+
+    fn subscribe_events(&self, id: &str) -> Result<broadcast::Receiver<SessionEvent>, ApiError> {
+        Ok(match self.live(id)? {
+            Ok(s) => s.subscribe(),
+            // A closed channel: the stream ends after the initial status.
+            Err(_) => broadcast::channel(1).1,
+        })
+    }
+
+    fn metrics_text(&self) -> String {
+        let rows: Vec<(SessionInfo, u64)> = lock(&self.sessions)
+            .entries
+            .values()
+            .map(|e| match e {
+                Entry::Live(s) => (s.info(), s.odometry_lost()),
+                Entry::Stopped(m) => (m.info.clone(), 0),
+            })
+            .collect();
+        let sketches = lock(&self.sketches).len();
+        let mut out = String::new();
+        let labels = |i: &SessionInfo| {
+            format!(
+                "session=\"{}\",robot=\"{}\",method=\"{}\"",
+                escape_label(&i.id),
+                escape_label(&i.robot_id),
+                i.method.as_str()
+            )
+        };
+        let mut family =
+            |name: &str, kind: &str, help: &str, value: &dyn Fn(&SessionInfo, u64) -> String| {
+                out.push_str(&format!("# HELP {name} {help}\n# TYPE {name} {kind}\n"));
+                for (info, odo) in &rows {
+                    out.push_str(&format!(
+                        "{name}{{{}}} {}\n",
+                        labels(info),
+                        value(info, *odo)
+                    ));
+                }
+            };
+        family(
+            "sketchslam_scans_processed_total",
+            "counter",
+            "Scans fused into the session's map.",
+            &|i, _| i.scans_processed.to_string(),
+        );
+        family(
+            "sketchslam_scans_lost_total",
+            "counter",
+            "Scans missing from the robot's stream (sequence gaps).",
+            &|i, _| i.scans_lost.to_string(),
+        );
+        family(
+            "sketchslam_odometry_lost_total",
+            "counter",
+            "Odometry readings missing from the robot's stream (running sessions).",
+            &|_, o| o.to_string(),
+        );
+        family(
+            "sketchslam_recoveries_total",
+            "counter",
+            "Recoveries of localization on the sketch.",
+            &|i, _| i.recoveries.to_string(),
+        );
+        family(
+            "sketchslam_loop_closures_total",
+            "counter",
+            "Loops closed by the sketch method's back end.",
+            &|i, _| i.loop_closures.to_string(),
+        );
+        family(
+            "sketchslam_localization_score",
+            "gauge",
+            "Localization score in [0, 1].",
+            &|i, _| i.localization_score.to_string(),
+        );
+        out.push_str(
+            "# HELP sketchslam_sessions Sessions by state.\n# TYPE sketchslam_sessions gauge\n",
+        );
+        for (state, name) in [
+            (SessionState::WaitingForData, "waiting_for_data"),
+            (SessionState::Mapping, "mapping"),
+            (SessionState::Stopped, "stopped"),
+            (SessionState::Failed, "failed"),
+        ] {
+            let n = rows.iter().filter(|(i, _)| i.state == state).count();
+            out.push_str(&format!("sketchslam_sessions{{state=\"{name}\"}} {n}\n"));
+        }
+        out.push_str(&format!(
+            "# HELP sketchslam_sketches Stored sketches.\n# TYPE sketchslam_sketches gauge\nsketchslam_sketches {sketches}\n"
+        ));
+        out.push_str(
+            "# HELP sketchslam_scan_processing_seconds Time to process one scan (all sessions).\n\
+             # TYPE sketchslam_scan_processing_seconds histogram\n",
+        );
+        self.histogram
+            .render("sketchslam_scan_processing_seconds", &mut out);
+        out
+    }
+}

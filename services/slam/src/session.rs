@@ -1,0 +1,340 @@
+//! One mapping session: a robot's intake thread feeding its own mapper thread.
+//!
+//! The mapper thread owns the processing order: it takes [`IntakeMsg`]s one by one, feeds
+//! them to the [`Mapper`] (behind a mutex, so HTTP requests can copy the map or the
+//! trajectory between two messages), updates the status, and broadcasts each new pose and
+//! every status change to the session's event subscribers. A panic inside the engine marks
+//! the session `failed` with the panic's message instead of taking the process down.
+
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::mpsc::Receiver;
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+use std::time::Instant;
+
+use sketchslam_api::{
+    ApiError, OccupancyGridResponse, Pose2Info, PoseResponse, SessionEvent, SessionInfo,
+    SessionState, SketchPoseInfo, TrajectoryPointInfo, TrajectoryResponse,
+};
+use sketchslam_ipc::IpcConfig;
+use sketchslam_types::SensorEvent;
+use tokio::sync::broadcast;
+
+use super::intake::{Intake, IntakeMsg};
+use super::metrics::Histogram;
+use super::storage::{SessionFiles, SessionMeta};
+use sketchslam_engine::mapper::{Health, Mapper, PoseEstimate, TrajectoryPoint, trajectory_csv};
+use sketchslam_engine::mapping::grid::OccupancyGrid;
+
+/// Capacity of a session's event broadcast; a slower SSE client skips events.
+const EVENT_CAPACITY: usize = 256;
+
+/// Locks a mutex even if a panicking thread poisoned it (the data is still usable).
+pub(crate) fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// Milliseconds since the Unix epoch.
+pub(crate) fn now_unix_ms() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_millis() as u64)
+        .unwrap_or(0)
+}
+
+/// The pose response of a mapper state.
+pub fn pose_response(session_id: &str, pose: &PoseEstimate, health: &Health) -> PoseResponse {
+    let initialized = health.initialized || health.scans_processed > 0;
+    PoseResponse {
+        session_id: session_id.to_string(),
+        x: pose.map.x,
+        y: pose.map.y,
+        theta: pose.map.heading_rad,
+        stamp: initialized.then_some(pose.stamp_ns as f64 * 1e-9),
+        sketch: pose.sketch.map(|s| SketchPoseInfo {
+            u: s.u_px,
+            v: s.v_px,
+            heading_deg: s.heading_rad.to_degrees(),
+            meters_per_pixel: s.meters_per_pixel,
+        }),
+        map_id: session_id.to_string(),
+        position_initialized: initialized,
+        localization_score: if health.localization_score.is_finite() {
+            health.localization_score.clamp(0.0, 1.0)
+        } else {
+            0.0
+        },
+    }
+}
+
+/// The API's occupancy JSON of a grid.
+pub fn occupancy_response(session_id: &str, grid: &OccupancyGrid) -> OccupancyGridResponse {
+    let ros = grid.to_ros_occupancy();
+    OccupancyGridResponse {
+        session_id: session_id.to_string(),
+        frame_id: "map".to_string(),
+        width: ros.width as u32,
+        height: ros.height as u32,
+        resolution: ros.resolution_m,
+        origin: Pose2Info {
+            x: ros.origin.x,
+            y: ros.origin.y,
+            theta: ros.origin.heading_rad,
+        },
+        data: ros.data,
+    }
+}
+
+/// The API's trajectory of mapper trajectory points.
+pub fn trajectory_response(session_id: &str, points: &[TrajectoryPoint]) -> TrajectoryResponse {
+    TrajectoryResponse {
+        session_id: session_id.to_string(),
+        points: points
+            .iter()
+            .map(|p| TrajectoryPointInfo {
+                t: p.stamp_ns as f64 * 1e-9,
+                x: p.pose.x,
+                y: p.pose.y,
+                theta: p.pose.heading_rad,
+            })
+            .collect(),
+    }
+}
+
+/// What the HTTP side reads of a running session.
+pub struct SessionShared {
+    /// The status.
+    pub info: Mutex<SessionInfo>,
+    /// The latest pose.
+    pub pose: Mutex<PoseResponse>,
+    /// Odometry readings lost (the status counts scans only).
+    pub odometry_lost: Mutex<u64>,
+    /// The live feed.
+    pub events: broadcast::Sender<SessionEvent>,
+}
+
+impl SessionShared {
+    fn publish_status(&self) {
+        let info = lock(&self.info).clone();
+        // No subscriber is not an error.
+        let _ = self.events.send(SessionEvent::Status(info));
+    }
+}
+
+/// A running session.
+pub struct Session {
+    /// Session id.
+    pub id: String,
+    /// The robot.
+    pub robot_id: String,
+    shared: Arc<SessionShared>,
+    mapper: Arc<Mutex<Mapper>>,
+    threads: Mutex<Option<(Intake, JoinHandle<()>)>>,
+}
+
+impl Session {
+    /// Subscribes to the robot and starts the mapper thread. `info` is the initial status.
+    pub fn start(
+        info: SessionInfo,
+        mapper: Mapper,
+        ipc: IpcConfig,
+        histogram: Arc<Histogram>,
+    ) -> Result<Session, ApiError> {
+        let id = info.id.clone();
+        let robot_id = info.robot_id.clone();
+        let initial_pose = pose_response(&id, &mapper.pose(), &mapper.health());
+        let shared = Arc::new(SessionShared {
+            info: Mutex::new(info),
+            pose: Mutex::new(initial_pose),
+            odometry_lost: Mutex::new(0),
+            events: broadcast::channel(EVENT_CAPACITY).0,
+        });
+        let mapper = Arc::new(Mutex::new(mapper));
+        let (intake, rx) = Intake::start(ipc, &robot_id).map_err(|e| {
+            ApiError::Unavailable(format!("cannot subscribe to robot {robot_id:?}: {e}"))
+        })?;
+        let thread = {
+            let shared = shared.clone();
+            let mapper = mapper.clone();
+            std::thread::Builder::new()
+                .name(format!("mapper-{robot_id}"))
+                .spawn(move || run_mapper(rx, mapper, shared, histogram))
+                .map_err(|e| ApiError::internal(format!("cannot spawn the mapper thread: {e}")))?
+        };
+        tracing::info!(session = %id, robot = %robot_id, "session started");
+        Ok(Session {
+            id,
+            robot_id,
+            shared,
+            mapper,
+            threads: Mutex::new(Some((intake, thread))),
+        })
+    }
+
+    /// The current status.
+    pub fn info(&self) -> SessionInfo {
+        lock(&self.shared.info).clone()
+    }
+
+    /// Odometry readings lost so far.
+    pub fn odometry_lost(&self) -> u64 {
+        *lock(&self.shared.odometry_lost)
+    }
+
+    /// The latest pose.
+    pub fn pose(&self) -> PoseResponse {
+        lock(&self.shared.pose).clone()
+    }
+
+    /// A receiver of the live feed.
+    pub fn subscribe(&self) -> broadcast::Receiver<SessionEvent> {
+        self.shared.events.subscribe()
+    }
+
+    /// The trajectory so far.
+    pub fn trajectory(&self) -> TrajectoryResponse {
+        let points = lock(&self.mapper).trajectory().to_vec();
+        trajectory_response(&self.id, &points)
+    }
+
+    /// A copy of the map so far (rendering happens outside the mapper's lock).
+    pub fn grid(&self) -> OccupancyGrid {
+        lock(&self.mapper).grid().clone()
+    }
+
+    /// Stops the intake (it drains what arrived), lets the mapper process everything
+    /// received, and returns the final status, pose and files. Idempotent.
+    pub fn finish(&self) -> (SessionMeta, SessionFiles) {
+        if let Some((intake, thread)) = lock(&self.threads).take() {
+            intake.stop();
+            if thread.join().is_err() {
+                tracing::error!(session = %self.id, "the mapper thread panicked");
+            }
+        }
+        let (grid, points, pose) = {
+            let mut m = lock(&self.mapper);
+            (
+                m.grid().clone(),
+                m.trajectory().to_vec(),
+                pose_response(&self.id, &m.pose(), &m.health()),
+            )
+        };
+        *lock(&self.shared.pose) = pose.clone();
+        let info = {
+            let mut info = lock(&self.shared.info);
+            if info.state != SessionState::Failed {
+                info.state = SessionState::Stopped;
+            }
+            info.stopped_unix_ms.get_or_insert_with(now_unix_ms);
+            info.clone()
+        };
+        self.shared.publish_status();
+        let map_json = serde_json::to_vec(&occupancy_response(&self.id, &grid))
+            .unwrap_or_else(|_| b"{}".to_vec());
+        let files = SessionFiles {
+            map_pgm: grid.to_pgm(),
+            map_yaml: grid.to_yaml("map.pgm"),
+            map_png: grid.to_png(),
+            map_json,
+            trajectory_csv: trajectory_csv(&points),
+        };
+        tracing::info!(
+            session = %self.id,
+            scans = info.scans_processed,
+            lost = info.scans_lost,
+            "session stopped"
+        );
+        (SessionMeta { info, pose }, files)
+    }
+}
+
+impl Drop for Session {
+    fn drop(&mut self) {
+        if let Some((intake, thread)) = lock(&self.threads).take() {
+            intake.stop();
+            let _ = thread.join();
+        }
+    }
+}
+
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".to_string())
+}
+
+/// The mapper thread: processes every message until the intake hangs up.
+fn run_mapper(
+    rx: Receiver<IntakeMsg>,
+    mapper: Arc<Mutex<Mapper>>,
+    shared: Arc<SessionShared>,
+    histogram: Arc<Histogram>,
+) {
+    let session_id = lock(&shared.info).id.clone();
+    for msg in rx {
+        match msg {
+            IntakeMsg::Event(event) => {
+                let is_scan = matches!(event, SensorEvent::Scan(_));
+                let started = Instant::now();
+                let outcome = catch_unwind(AssertUnwindSafe(|| {
+                    let mut m = lock(&mapper);
+                    m.on_event(&event);
+                    (m.health(), m.pose())
+                }));
+                let (health, pose) = match outcome {
+                    Ok(v) => v,
+                    Err(payload) => {
+                        let message = format!("the mapper failed: {}", panic_message(&*payload));
+                        tracing::error!(session = %session_id, %message);
+                        {
+                            let mut info = lock(&shared.info);
+                            info.state = SessionState::Failed;
+                            info.last_error = Some(message);
+                        }
+                        shared.publish_status();
+                        return;
+                    }
+                };
+                if is_scan {
+                    histogram.observe(started.elapsed());
+                }
+                let response = pose_response(&session_id, &pose, &health);
+                *lock(&shared.pose) = response.clone();
+                let state_changed = {
+                    let mut info = lock(&shared.info);
+                    info.scans_processed = health.scans_processed;
+                    info.recoveries = health.recoveries as u64;
+                    info.loop_closures = u64::from(health.loop_closures);
+                    info.localization_score = response.localization_score;
+                    info.estimated_meters_per_pixel = health.meters_per_pixel;
+                    let changed = info.state == SessionState::WaitingForData;
+                    if changed {
+                        info.state = SessionState::Mapping;
+                    }
+                    changed
+                };
+                if state_changed {
+                    shared.publish_status();
+                }
+                if is_scan {
+                    let _ = shared.events.send(SessionEvent::Pose(response));
+                }
+            }
+            IntakeMsg::Stats(stats) => {
+                {
+                    let mut info = lock(&shared.info);
+                    info.scans_lost = stats.scans_lost;
+                    info.publisher_restarts = stats.sequence_restarts;
+                }
+                *lock(&shared.odometry_lost) = stats.odometry_lost;
+                shared.publish_status();
+            }
+            IntakeMsg::Error(message) => {
+                lock(&shared.info).last_error = Some(message);
+                shared.publish_status();
+            }
+        }
+    }
+}

@@ -1,0 +1,14 @@
+//! Types shared by every sketchslam process: plane geometry (`Pose2`, `Point2`), the
+//! iceoryx2 payloads a robot driver publishes (`ScanHeader` over a `[f32]` slice of
+//! ranges, `Odometry`), their owned in-process twin (`Scan`), and the service names.
+//!
+//! Units are in the names: lengths in meters (`_m`), angles in radians (`_rad`), stamps
+//! in nanoseconds of the publisher's clock (`stamp_ns`).
+
+pub mod geometry;
+pub mod messages;
+pub mod names;
+
+pub use geometry::{Point2, Pose2, wrap_angle};
+pub use messages::{Odometry, Scan, ScanHeader, SensorEvent};
+pub use names::{DEFAULT_PREFIX, ServiceNames, Topic};
