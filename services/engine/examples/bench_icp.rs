@@ -11,7 +11,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use sketchslam_engine::lines::ransac::{RansacConfig, extract_scan_lines};
 use sketchslam_engine::mapping::grid::{GridConfig, OccupancyGrid};
-use sketchslam_engine::scan_matching::icp::{Icp, IcpConfig, IcpMode, reference_from_grid};
+use sketchslam_engine::scan_matching::icp::{Icp, IcpConfig, IcpMode};
 use sketchslam_types::{Point2, Pose2, Scan};
 use std::time::Instant;
 
@@ -180,7 +180,7 @@ fn main() {
             err_trans_m.push(e.x.hypot(e.y));
             // Scan-to-map against what the grid holds so far.
             let t0 = Instant::now();
-            let reference = reference_from_grid(&grid, poses[k].position(), 15.0);
+            let reference = grid.occupied_points_near(poses[k].position(), 15.0);
             let map_icp = Icp::new(&reference, cfg);
             t_map_ref.push(t0.elapsed().as_secs_f64() * 1e6);
             let t0 = Instant::now();

@@ -4,7 +4,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use sketchslam_engine::mapping::grid::{GridConfig, OccupancyGrid};
-use sketchslam_engine::scan_matching::icp::{Icp, IcpConfig, IcpMode, reference_from_grid};
+use sketchslam_engine::scan_matching::icp::{Icp, IcpConfig, IcpMode};
 use sketchslam_types::{Point2, Pose2, Scan};
 
 type Seg = (Point2, Point2);
@@ -136,7 +136,7 @@ fn scan_to_map_against_grid_reference() {
     }
     let truth = Pose2::new(0.6, -0.9, 1.0);
     let source = points(&simulate(&truth, 0.01, &mut rng));
-    let reference = reference_from_grid(&grid, truth.position(), 30.0);
+    let reference = grid.occupied_points_near(truth.position(), 30.0);
     let icp = Icp::new(&reference, IcpConfig::default());
     let guess = truth.compose(&Pose2::new(-0.15, 0.1, 0.03));
     let r = icp.align(&source, guess, IcpMode::Full);

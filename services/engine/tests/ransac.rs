@@ -6,10 +6,10 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use sketchslam_engine::lines::matching::{
     HeadingAggregate, MatchConfig, heading_correction, match_lines, sketch_line_in_robot_frame,
-    wrap_half_pi,
 };
 use sketchslam_engine::lines::ransac::{RansacConfig, ScanLine, extract_lines, extract_scan_lines};
 use sketchslam_engine::sketch::{SketchLine, SketchPose};
+use sketchslam_types::wrap_half_pi;
 use sketchslam_types::{Point2, Pose2, Scan};
 use std::f64::consts::PI;
 

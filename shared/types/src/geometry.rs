@@ -6,7 +6,7 @@
 //! kept wrapped to (−π, π]. Everything is O(1).
 
 use serde::{Deserialize, Serialize};
-use std::f64::consts::PI;
+use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Wraps an angle in radians to (−π, π].
 pub fn wrap_angle(angle_rad: f64) -> f64 {
@@ -18,6 +18,21 @@ pub fn wrap_angle(angle_rad: f64) -> f64 {
         a += 2.0 * PI;
     } else if a > PI {
         a -= 2.0 * PI;
+    }
+    a
+}
+
+/// Wraps an undirected angle difference (between two line directions, which are defined
+/// modulo π) to (−π/2, π/2].
+pub fn wrap_half_pi(angle_rad: f64) -> f64 {
+    if !angle_rad.is_finite() {
+        return angle_rad;
+    }
+    let mut a = angle_rad % PI;
+    if a <= -FRAC_PI_2 {
+        a += PI;
+    } else if a > FRAC_PI_2 {
+        a -= PI;
     }
     a
 }
@@ -129,7 +144,14 @@ impl Pose2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::f64::consts::FRAC_PI_2;
+
+    #[test]
+    fn wrap_half_pi_range() {
+        assert!((wrap_half_pi(PI) - 0.0).abs() < 1e-12);
+        assert!((wrap_half_pi(FRAC_PI_2) - FRAC_PI_2).abs() < 1e-12);
+        assert!((wrap_half_pi(-FRAC_PI_2) - FRAC_PI_2).abs() < 1e-12);
+        assert!((wrap_half_pi(3.0) - (3.0 - PI)).abs() < 1e-12);
+    }
 
     fn close(a: f64, b: f64) -> bool {
         (a - b).abs() < 1e-12

@@ -9,6 +9,6 @@ pub mod geometry;
 pub mod messages;
 pub mod names;
 
-pub use geometry::{Point2, Pose2, wrap_angle};
+pub use geometry::{Point2, Pose2, wrap_angle, wrap_half_pi};
 pub use messages::{Odometry, Scan, ScanHeader, SensorEvent};
 pub use names::{DEFAULT_PREFIX, ServiceNames, Topic};

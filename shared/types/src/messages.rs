@@ -95,6 +95,17 @@ impl Scan {
         }
     }
 
+    /// The scan's range cap in meters, or `fallback_m` when the header's is not a positive
+    /// finite number (a driver that leaves it unset).
+    pub fn range_max_m_or(&self, fallback_m: f64) -> f64 {
+        let r = self.header.range_max_m as f64;
+        if r.is_finite() && r > 0.0 {
+            r
+        } else {
+            fallback_m
+        }
+    }
+
     /// Angle of beam `i` in the robot frame, radians.
     pub fn beam_angle_rad(&self, i: usize) -> f64 {
         self.header.angle_min_rad as f64 + i as f64 * self.header.angle_increment_rad as f64

@@ -23,22 +23,7 @@
 
 use crate::lines::ransac::ScanLine;
 use crate::sketch::{SketchLine, SketchPose};
-use sketchslam_types::{Point2, Pose2};
-use std::f64::consts::{FRAC_PI_2, PI};
-
-/// Wraps an undirected angle difference to (−π/2, π/2].
-pub fn wrap_half_pi(angle_rad: f64) -> f64 {
-    if !angle_rad.is_finite() {
-        return angle_rad;
-    }
-    let mut a = angle_rad % PI;
-    if a <= -FRAC_PI_2 {
-        a += PI;
-    } else if a > FRAC_PI_2 {
-        a -= PI;
-    }
-    a
-}
+use sketchslam_types::{Point2, Pose2, wrap_half_pi};
 
 /// The robot's pose in the sketch's metric frame (`x = u·s`, `y = −v·s`, meters).
 pub fn sketch_pose_metric(pose: &SketchPose) -> Pose2 {
@@ -230,14 +215,7 @@ pub fn heading_correction(matches: &[LineMatch], aggregate: HeadingAggregate) ->
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn wrap_half_pi_range() {
-        assert!((wrap_half_pi(PI) - 0.0).abs() < 1e-12);
-        assert!((wrap_half_pi(FRAC_PI_2) - FRAC_PI_2).abs() < 1e-12);
-        assert!((wrap_half_pi(-FRAC_PI_2) - FRAC_PI_2).abs() < 1e-12);
-        assert!((wrap_half_pi(3.0) - (3.0 - PI)).abs() < 1e-12);
-    }
+    use std::f64::consts::FRAC_PI_2;
 
     #[test]
     fn sketch_line_to_robot_frame_by_hand() {

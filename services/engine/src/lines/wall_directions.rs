@@ -13,9 +13,9 @@
 //! Sits between the sketch side (its lines, once per drawing) and the loop-closure back end
 //! ([`crate::back_end::loop_closure`]), per keyframe.
 
-use crate::lines::matching::wrap_half_pi;
 use crate::lines::ransac::ScanLine;
 use crate::sketch::SketchLine;
+use sketchslam_types::wrap_half_pi;
 use std::f64::consts::PI;
 
 /// Half width of the window that gathers a direction's lines, radians.

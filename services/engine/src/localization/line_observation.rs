@@ -30,7 +30,6 @@
 //!
 //! Cost: `B / beam_stride` ray casts + O(B + lines).
 
-use crate::localization::mcl::scan_range_max_m;
 use crate::sketch::SketchPose;
 use crate::sketch::raycast::SketchRaycaster;
 use sketchslam_types::Scan;
@@ -101,7 +100,7 @@ pub fn observe_lines(
     let n_lines = raycaster.lines().len();
     let mut sums = vec![0.0f64; n_lines];
     let mut beams: Vec<Vec<usize>> = vec![Vec::new(); n_lines];
-    let max_px = scan_range_max_m(scan, config.fallback_range_max_m) / s;
+    let max_px = scan.range_max_m_or(config.fallback_range_max_m) / s;
     let stride = config.beam_stride.max(1);
     for i in (0..scan.ranges_m.len()).step_by(stride) {
         if !scan.is_return(i) {

@@ -415,7 +415,7 @@ impl SketchMcl {
             };
         }
         let c = &self.config;
-        let range_max_m = scan_range_max_m(scan, c.fallback_range_max_m);
+        let range_max_m = scan.range_max_m_or(c.fallback_range_max_m);
         let floor = c.z_rand / range_max_m;
         let beam_data: Vec<(f64, f64, f64)> = beams
             .iter()
@@ -558,7 +558,7 @@ fn pose_score(
         return 0.0;
     }
     let s = pose.meters_per_pixel;
-    let max_px = scan_range_max_m(scan, config.fallback_range_max_m) / s;
+    let max_px = scan.range_max_m_or(config.fallback_range_max_m) / s;
     let sum: f64 = beams
         .iter()
         .map(|&i| {
@@ -595,16 +595,6 @@ pub fn used_beams(scan: &Scan, count: usize) -> Vec<usize> {
         .collect();
     out.dedup();
     out
-}
-
-/// The scan's range cap in meters, or `fallback_m` when it is not a positive finite number.
-pub fn scan_range_max_m(scan: &Scan, fallback_m: f64) -> f64 {
-    let r = scan.header.range_max_m as f64;
-    if r.is_finite() && r > 0.0 {
-        r
-    } else {
-        fallback_m
-    }
 }
 
 fn validate_pose(p: &SketchPose) -> Result<(), EngineError> {

@@ -261,7 +261,7 @@ impl SketchTracker {
             // eq. (5)'s difference measured at the prediction, re-referred to the ICP heading.
             Some(d) if !hard => {
                 let residual = predicted.heading_rad + d - aligned.heading_rad;
-                let residual = crate::lines::matching::wrap_half_pi(residual);
+                let residual = sketchslam_types::wrap_half_pi(residual);
                 // Only the part beyond the drawing's own angular error is evidence of drift.
                 let excess =
                     residual.signum() * (residual.abs() - self.heading_deadband_rad).max(0.0);
@@ -324,11 +324,7 @@ impl SketchTracker {
             let points = match self.reference_kind {
                 IcpReference::PreviousScan => self.previous_points.clone(),
                 IcpReference::Map => {
-                    let mut pts = crate::scan_matching::icp::reference_from_grid(
-                        grid,
-                        centre,
-                        ICP_REFERENCE_RADIUS_M,
-                    );
+                    let mut pts = grid.occupied_points_near(centre, ICP_REFERENCE_RADIUS_M);
                     // The grid holds the last scans only once their cells pass the
                     // occupancy threshold: add the previous scan so a new area has support.
                     pts.extend_from_slice(&self.previous_points);

@@ -243,6 +243,24 @@ impl OccupancyGrid {
         self.occupied_in_cells(0, 0, self.width, self.height)
     }
 
+    /// Centres of the occupied cells within `radius_m` of `center` (all of them for an
+    /// infinite radius): a scan-to-map ICP reference. O(cells of the bounding box).
+    pub fn occupied_points_near(&self, center: Point2, radius_m: f64) -> Vec<Point2> {
+        if radius_m.is_infinite() && radius_m > 0.0 {
+            return self.occupied_points();
+        }
+        if !(radius_m >= 0.0 && center.x.is_finite() && center.y.is_finite()) {
+            return Vec::new();
+        }
+        let (min, max) = (
+            Point2::new(center.x - radius_m, center.y - radius_m),
+            Point2::new(center.x + radius_m, center.y + radius_m),
+        );
+        let mut pts = self.occupied_points_in_box(min, max);
+        pts.retain(|p| p.distance(&center) <= radius_m);
+        pts
+    }
+
     /// Centres of the occupied cells whose centre lies in the box `[min, max]` (map frame),
     /// same order as [`OccupancyGrid::occupied_points`]. O(cells of the box).
     pub fn occupied_points_in_box(&self, min: Point2, max: Point2) -> Vec<Point2> {

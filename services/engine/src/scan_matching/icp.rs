@@ -3,7 +3,7 @@
 //! frame-to-frame or scan-to-map ICP seeded by odometry, full SE(2)).
 //!
 //! Reference: points `q_j` (the previous frame's returns, or cells of the map built so far,
-//! see [`reference_from_grid`]) in a k-d tree (kiddo `ImmutableKdTree`), each with a normal
+//! see [`OccupancyGrid::occupied_points_near`]) in a k-d tree (kiddo `ImmutableKdTree`), each with a normal
 //! `n_j` from PCA over its `normal_neighbours` nearest neighbours (the eigenvector of the
 //! smallest eigenvalue of their covariance; neighbourhoods that are not line-like, with
 //! `λ_min / λ_max > max_normal_eigen_ratio`, get no normal and are never matched).
@@ -138,24 +138,6 @@ fn pca_normal(nb: &[Point2]) -> Option<(Point2, f64)> {
     Some((Point2::new(-phi.sin(), phi.cos()), l_min.max(0.0) / l_max))
 }
 
-/// The occupied cells of `grid` within `radius_m` of `center` (all of them for an infinite
-/// radius): a scan-to-map ICP reference. O(cells of the bounding box).
-pub fn reference_from_grid(grid: &OccupancyGrid, center: Point2, radius_m: f64) -> Vec<Point2> {
-    if radius_m.is_infinite() && radius_m > 0.0 {
-        return grid.occupied_points();
-    }
-    if !(radius_m >= 0.0 && center.x.is_finite() && center.y.is_finite()) {
-        return Vec::new();
-    }
-    let (min, max) = (
-        Point2::new(center.x - radius_m, center.y - radius_m),
-        Point2::new(center.x + radius_m, center.y + radius_m),
-    );
-    let mut pts = grid.occupied_points_in_box(min, max);
-    pts.retain(|p| p.distance(&center) <= radius_m);
-    pts
-}
-
 impl Icp {
     /// Prepares `reference_points` (non-finite ones dropped): k-d tree and normals.
     /// Unusable configuration fields fall back to their defaults.
@@ -201,14 +183,15 @@ impl Icp {
         }
     }
 
-    /// A scan-to-map reference from the map built so far: [`reference_from_grid`].
+    /// A scan-to-map reference from the map built so far:
+    /// [`OccupancyGrid::occupied_points_near`].
     pub fn from_grid(
         grid: &OccupancyGrid,
         center: Point2,
         radius_m: f64,
         config: IcpConfig,
     ) -> Self {
-        Self::new(&reference_from_grid(grid, center, radius_m), config)
+        Self::new(&grid.occupied_points_near(center, radius_m), config)
     }
 
     /// The configuration in use.
