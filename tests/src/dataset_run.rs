@@ -92,8 +92,9 @@ pub fn run_dataset_in_process(
         }
     }
     std::fs::create_dir_all(out_dir)?;
-    std::fs::write(out_dir.join("map.pgm"), mapper.grid().to_pgm())?;
-    std::fs::write(out_dir.join("map.yaml"), mapper.grid().to_yaml("map.pgm"))?;
+    let grid = mapper.refresh_map();
+    std::fs::write(out_dir.join("map.pgm"), grid.to_pgm())?;
+    std::fs::write(out_dir.join("map.yaml"), grid.to_yaml("map.pgm"))?;
     std::fs::write(
         out_dir.join("trajectory.csv"),
         trajectory_csv(mapper.trajectory()),

@@ -168,8 +168,9 @@ pub fn run_in_process(
     );
     let seen_walls = seen_wall_pixels(scenario, &world, &walls, &truth_poses);
     std::fs::create_dir_all(out_dir)?;
-    std::fs::write(out_dir.join("map.pgm"), mapper.grid().to_pgm())?;
-    std::fs::write(out_dir.join("map.yaml"), mapper.grid().to_yaml("map.pgm"))?;
+    let grid = mapper.refresh_map();
+    std::fs::write(out_dir.join("map.pgm"), grid.to_pgm())?;
+    std::fs::write(out_dir.join("map.yaml"), grid.to_yaml("map.pgm"))?;
     std::fs::write(
         out_dir.join("trajectory.csv"),
         trajectory_csv(mapper.trajectory()),

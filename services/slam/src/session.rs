@@ -5,12 +5,18 @@
 //! trajectory between two messages), updates the status, and broadcasts each new pose and
 //! every status change to the session's event subscribers. A panic inside the engine marks
 //! the session `failed` with the panic's message instead of taking the process down.
+//!
+//! After a loop closure moved the keyframes, the grid is rebuilt on the mapper thread too
+//! ([`Mapper::refresh_map`]): when the intake has been idle for [`IDLE_REFRESH`], when an
+//! HTTP request asked for the map (it waits for the rebuild, up to [`MAP_WAIT`]), and when
+//! the intake hangs up. An HTTP request never rebuilds the map itself.
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
-use std::sync::mpsc::Receiver;
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread::JoinHandle;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use sketchslam_api::{
     ApiError, OccupancyGridResponse, Pose2Info, PoseResponse, SessionEvent, SessionInfo,
@@ -28,6 +34,13 @@ use sketchslam_engine::mapping::grid::OccupancyGrid;
 
 /// Capacity of a session's event broadcast; a slower SSE client skips events.
 const EVENT_CAPACITY: usize = 256;
+
+/// The mapper thread rebuilds a stale map once the intake has been quiet this long.
+pub const IDLE_REFRESH: Duration = Duration::from_millis(50);
+
+/// The longest a map request waits for the mapper thread's rebuild; past it, the map as
+/// last built is served.
+pub const MAP_WAIT: Duration = Duration::from_secs(30);
 
 /// Locks a mutex even if a panicking thread poisoned it (the data is still usable).
 pub(crate) fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -111,6 +124,12 @@ pub struct SessionShared {
     pub odometry_lost: Mutex<u64>,
     /// The live feed.
     pub events: broadcast::Sender<SessionEvent>,
+    /// Set by a map request that found the map stale; the mapper thread rebuilds it.
+    map_wanted: AtomicBool,
+    /// True while the mapper thread runs.
+    mapping: AtomicBool,
+    /// Notified (with the mapper's mutex) when the map was rebuilt or the thread ended.
+    map_rebuilt: Condvar,
 }
 
 impl SessionShared {
@@ -148,6 +167,9 @@ impl Session {
             pose: Mutex::new(initial_pose),
             odometry_lost: Mutex::new(0),
             events: broadcast::channel(EVENT_CAPACITY).0,
+            map_wanted: AtomicBool::new(false),
+            mapping: AtomicBool::new(true),
+            map_rebuilt: Condvar::new(),
         });
         let mapper = Arc::new(Mutex::new(mapper));
         let (intake, rx) = Intake::start(ipc, &robot_id).map_err(|e| {
@@ -197,9 +219,22 @@ impl Session {
         trajectory_response(&self.id, &points)
     }
 
-    /// A copy of the map so far (rendering happens outside the mapper's lock).
+    /// A copy of the map so far (rendering happens outside the mapper's lock). After a
+    /// loop closure it waits for the mapper thread to rebuild the map (up to [`MAP_WAIT`]).
     pub fn grid(&self) -> OccupancyGrid {
-        lock(&self.mapper).grid().clone()
+        let m = lock(&self.mapper);
+        if m.map_is_current() || !self.shared.mapping.load(Ordering::Acquire) {
+            return m.grid().clone();
+        }
+        self.shared.map_wanted.store(true, Ordering::Release);
+        let (m, _) = self
+            .shared
+            .map_rebuilt
+            .wait_timeout_while(m, MAP_WAIT, |m| {
+                !m.map_is_current() && self.shared.mapping.load(Ordering::Acquire)
+            })
+            .unwrap_or_else(|e| e.into_inner());
+        m.grid().clone()
     }
 
     /// Stops the intake (it drains what arrived), lets the mapper process everything
@@ -212,7 +247,8 @@ impl Session {
             }
         }
         let (grid, points, pose) = {
-            let mut m = lock(&self.mapper);
+            // The mapper thread rebuilt the map when the intake hung up.
+            let m = lock(&self.mapper);
             (
                 m.grid().clone(),
                 m.trajectory().to_vec(),
@@ -265,6 +301,21 @@ fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
         .unwrap_or_else(|| "unknown panic".to_string())
 }
 
+/// Marks the mapper thread ended (whichever way it ends) and wakes map requests; under the
+/// mapper's lock, so a request checking the flag cannot miss the wake-up.
+struct MappingEnded {
+    mapper: Arc<Mutex<Mapper>>,
+    shared: Arc<SessionShared>,
+}
+
+impl Drop for MappingEnded {
+    fn drop(&mut self) {
+        let _m = lock(&self.mapper);
+        self.shared.mapping.store(false, Ordering::Release);
+        self.shared.map_rebuilt.notify_all();
+    }
+}
+
 /// The mapper thread: processes every message until the intake hangs up.
 fn run_mapper(
     rx: Receiver<IntakeMsg>,
@@ -273,7 +324,34 @@ fn run_mapper(
     histogram: Arc<Histogram>,
 ) {
     let session_id = lock(&shared.info).id.clone();
-    for msg in rx {
+    let _ended = MappingEnded {
+        mapper: mapper.clone(),
+        shared: shared.clone(),
+    };
+    // Rebuilds a stale map (mapping-side work, between messages) and wakes map requests.
+    let refresh = |shared: &SessionShared| {
+        let mut m = lock(&mapper);
+        if !m.map_is_current() {
+            m.refresh_map();
+        }
+        shared.map_wanted.store(false, Ordering::Release);
+        shared.map_rebuilt.notify_all();
+    };
+    loop {
+        let msg = match rx.recv_timeout(IDLE_REFRESH) {
+            Ok(msg) => msg,
+            Err(RecvTimeoutError::Timeout) => {
+                refresh(&shared);
+                continue;
+            }
+            Err(RecvTimeoutError::Disconnected) => {
+                refresh(&shared);
+                break;
+            }
+        };
+        if shared.map_wanted.load(Ordering::Acquire) {
+            refresh(&shared);
+        }
         match msg {
             IntakeMsg::Event(event) => {
                 let is_scan = matches!(event, SensorEvent::Scan(_));

@@ -1,207 +1,75 @@
 //! The mapper: one per session, fed a robot's odometry and scans in time order.
 //!
-//! It joins the two sides of the method and hosts the two baselines:
-//! - `odometry`: every scan is placed at the dead-reckoned pose;
-//! - `icp`: the paper's "conventional ICP-SLAM", frame-to-frame point-to-line ICP seeded by
-//!   the odometry increment, no sketch;
-//! - `sketch`: the paper's method. Per scan: MCL on the drawing with scale (eq. 1–3), the
-//!   sketch lines really observed (eq. 4), the heading corrected by matching them with the
-//!   scan's RANSAC lines (eq. 5), the position by point-to-line ICP with that heading held
-//!   (eq. 6), then the scan is fused into the occupancy grid.
+//! Last stage of the engine, it runs the others in one direction per scan:
 //!
-//! Map frame (DESIGN.md): meters, origin at the robot's start; with a sketch the axes are the
-//! drawing's (x along +u, y along −v), so the start heading is the one marked on the sketch.
-//! Between scans the pose is carried forward by the odometry increment, so the trajectory
-//! holds a pose at every odometry message, not only at scans.
+//! ```text
+//! scan ─▶ ScanFrame (points, once) ─▶ front end ─▶ pose (+ scan lines)
+//!                                                    │ keyframe due?
+//!                                                    ▼
+//!                          back end (loop closure, pose graph) ─▶ correction or nothing
+//!                                                    │
+//!            mapper applies it: trajectory re-anchored, map revision + 1, grid stale
+//!                                                    ▼
+//!                                         scan fused into the grid
+//! ```
 //!
-//! The `sketch` method also closes loops ([`crate::back_end::loop_closure`]): every trajectory pose
-//! and every fused scan is held relative to a keyframe, so when a loop closes and the
-//! keyframes move, the trajectory follows them and the grid is rebuilt from the logged
-//! scans at their corrected poses (lazily, when the grid is next asked for).
+//! - [`front_end`]: `odometry` (dead reckoning), `icp` (the paper's frame-to-frame
+//!   "conventional ICP-SLAM") or `sketch` ([`sketch_front_end`]: MCL on the drawing with
+//!   scale, eq. 1–3; the sketch lines really observed, eq. 4; the heading from matched
+//!   lines, eq. 5; the position by point-to-line ICP, eq. 6);
+//! - [`crate::back_end`]: for `sketch` sessions, every keyframe joins an SE(2) pose graph
+//!   and loops are closed by correlative scan matching; a correction moves every keyframe.
 //!
-//! Pure: no threads, clocks or I/O; its randomness comes from a seeded ChaCha stream.
+//! Every trajectory pose and every fused scan is held relative to a keyframe, so when the
+//! keyframes move the trajectory follows them at once, and the grid is rebuilt from the
+//! logged scans at their corrected poses by [`Mapper::refresh_map`] — mapping-side work
+//! the session runtime does between scans, never a getter's side effect — and before any
+//! front end that aligns against the grid.
+//!
+//! Map frame (`docs/architecture.md`): meters, origin at the robot's start; with a sketch
+//! the axes are the drawing's (x along +u, y along −v), so the start heading is the one
+//! marked on the sketch. Between scans the pose is carried forward by the odometry
+//! increment, so the trajectory holds a pose at every odometry message, not only at scans.
+//!
+//! Pure: no threads, clocks or I/O; its randomness comes from seeded ChaCha streams.
 
-mod sketch_tracker;
+mod config;
+mod frame;
+mod front_end;
+mod method;
+mod output;
+mod sketch_front_end;
+
+pub use config::{IcpReference, MapperConfig, SketchPrior};
+pub use frame::ScanFrame;
+pub use front_end::{FrontEndInput, FrontEndOutput, SketchReport};
+pub use method::Method;
+pub use output::{Health, PoseEstimate, TrajectoryPoint, trajectory_csv};
 
 use crate::EngineError;
-use crate::back_end::loop_closure::{LoopCloser, LoopClosureConfig};
-use crate::localization::mcl::MclConfig;
-use crate::mapping::grid::{GridConfig, OccupancyGrid};
-use crate::scan_matching::icp::{Icp, IcpConfig, IcpMode};
-use crate::sketch::{Sketch, SketchPose};
-use serde::{Deserialize, Serialize};
-use sketch_tracker::SketchTracker;
-use sketchslam_types::{Odometry, Point2, Pose2, Scan, SensorEvent};
-use std::fmt;
-use std::str::FromStr;
-use std::sync::Arc;
+use crate::back_end::heading_prior::WallHeadingPrior;
+use crate::back_end::loop_closure::LoopCloser;
+use crate::mapping::grid::OccupancyGrid;
+use front_end::FrontEnd;
+use sketch_front_end::SketchFrontEnd;
+use sketchslam_types::{Odometry, Pose2, Scan, SensorEvent};
 
-/// How a session turns scans into a map.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Method {
-    /// Scans placed at the dead-reckoned pose.
-    Odometry,
-    /// Frame-to-frame ICP seeded by odometry, no sketch.
-    Icp,
-    /// The paper's method with a hand-drawn map.
-    Sketch,
-}
+/// Seed offset of the heading-prior stage's own random stream (distinct from the front
+/// end's, which is seeded with `MapperConfig::seed` itself).
+const HEADING_PRIOR_SEED_OFFSET: u64 = 0x6865_6164;
 
-impl Method {
-    /// Every method, baselines first.
-    pub const ALL: [Method; 3] = [Method::Odometry, Method::Icp, Method::Sketch];
-
-    /// The method's name as used in the API and on the command line.
-    pub fn as_str(&self) -> &'static str {
-        match self {
-            Method::Odometry => "odometry",
-            Method::Icp => "icp",
-            Method::Sketch => "sketch",
-        }
-    }
-}
-
-impl fmt::Display for Method {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
-
-impl FromStr for Method {
-    type Err = EngineError;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "odometry" => Ok(Method::Odometry),
-            "icp" => Ok(Method::Icp),
-            "sketch" => Ok(Method::Sketch),
-            other => Err(EngineError::InvalidParameter {
-                name: "method",
-                reason: format!("{other:?} is not one of odometry, icp, sketch"),
-            }),
-        }
-    }
-}
-
-/// The drawing a `sketch` session localizes on, with the start a person marked on it.
-#[derive(Debug, Clone)]
-pub struct SketchPrior {
-    /// The processed drawing.
-    pub sketch: Arc<Sketch>,
-    /// The start marked on the drawing and the person's guess of its scale.
-    pub start: SketchPose,
-}
-
-/// Where ICP finds the reference points a new scan is aligned to.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum IcpReference {
-    /// The previous scan, as the paper does.
-    PreviousScan,
-    /// Occupied cells of the map built so far (plus the previous scan).
-    Map,
-}
-
-/// Settings of a mapper; the defaults are the ones the evaluation reports.
-#[derive(Debug, Clone)]
-pub struct MapperConfig {
-    /// The occupancy grid.
-    pub grid: GridConfig,
-    /// MCL on the sketch.
-    pub mcl: MclConfig,
-    /// ICP (both the baseline and the sketch method's translation step).
-    pub icp: IcpConfig,
-    /// Reference of the sketch method's ICP.
-    pub sketch_icp_reference: IcpReference,
-    /// Share of the eq. (5) heading correction applied per scan, 0..1. 1 is the paper:
-    /// the heading is replaced and ICP solves the translation only. Below 1 ICP solves
-    /// the full pose against the map and the sketch's line directions pull its heading by
-    /// this share of their difference per scan — a drawn wall a few degrees off then
-    /// bends the map less.
-    pub sketch_heading_gain: f64,
-    /// With a gain below 1: heading differences within this band are taken as the
-    /// drawing's own angular error and ignored, radians (a person draws a wall's direction
-    /// within a few degrees).
-    pub sketch_heading_deadband_rad: f64,
-    /// Loop closure of the `sketch` method; `None` keeps the paper's front end alone.
-    /// The baselines never close loops (`icp` is the paper's frame-to-frame ICP-SLAM).
-    pub loop_closure: Option<LoopClosureConfig>,
-    /// Seed of every random draw of the session.
-    pub seed: u64,
-}
-
-impl Default for MapperConfig {
-    fn default() -> Self {
-        Self {
-            grid: GridConfig::default(),
-            mcl: MclConfig::default(),
-            icp: IcpConfig::default(),
-            sketch_icp_reference: IcpReference::PreviousScan,
-            sketch_heading_gain: 0.05,
-            sketch_heading_deadband_rad: 4f64.to_radians(),
-            loop_closure: Some(LoopClosureConfig::default()),
-            seed: 1,
-        }
-    }
-}
-
-/// The current pose estimate.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct PoseEstimate {
-    /// Stamp of the last message that moved the estimate, nanoseconds.
-    pub stamp_ns: u64,
-    /// Pose in the map frame.
-    pub map: Pose2,
-    /// Pose and scale on the drawing (`sketch` sessions only).
-    pub sketch: Option<SketchPose>,
-}
-
-/// One pose of the trajectory.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct TrajectoryPoint {
-    /// Stamp, nanoseconds.
-    pub stamp_ns: u64,
-    /// Pose in the map frame.
-    pub pose: Pose2,
-}
-
-/// How well the session is doing.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct Health {
-    /// Scans fused so far.
-    pub scans_processed: u64,
-    /// Scans refused (no usable return at all).
-    pub scans_skipped: u64,
-    /// Times MCL on the sketch broke down and was recovered.
-    pub recoveries: u32,
-    /// Sketch lines observed at the last scan (eq. 4).
-    pub lines_observed: usize,
-    /// Localization score in 0..1 (1 for the baselines once initialized).
-    pub localization_score: f64,
-    /// Estimated scale of the drawing, meters per pixel (`sketch` only).
-    pub meters_per_pixel: Option<f64>,
-    /// Loops closed so far (`sketch` with loop closure only).
-    #[serde(default)]
-    pub loop_closures: u32,
-    /// True once the first odometry message has arrived.
-    pub initialized: bool,
-}
-
-/// Per-method state.
-enum Engine {
-    Odometry,
-    Icp {
-        previous_points: Option<Vec<Point2>>,
-    },
-    Sketch(Box<SketchTracker>),
+/// The back end of a session: the loop closer and, with a drawing, its heading prior.
+struct BackEnd {
+    closer: LoopCloser,
+    heading_prior: Option<WallHeadingPrior>,
 }
 
 /// One session's mapping state.
 pub struct Mapper {
     method: Method,
     config: MapperConfig,
-    engine: Engine,
+    front_end: FrontEnd,
+    back_end: Option<BackEnd>,
     grid: OccupancyGrid,
     /// Map pose of the robot at the start (identity, or the sketch's start heading).
     start_pose: Pose2,
@@ -216,13 +84,13 @@ pub struct Mapper {
     stamp_ns: u64,
     trajectory: Vec<TrajectoryPoint>,
     health: Health,
-    /// The loop-closure back end (`sketch` sessions with it enabled).
-    closer: Option<LoopCloser>,
     /// Per trajectory point: its keyframe and its pose relative to it (`None` before the
     /// first keyframe, or without loop closure).
     trajectory_anchors: Vec<Option<Anchor>>,
     /// Every fused scan with its keyframe anchor, to rebuild the grid after a correction.
     scan_log: Vec<(Anchor, Scan)>,
+    /// Corrections of the back end so far.
+    map_revision: u64,
     /// True when keyframes moved since the grid was built.
     grid_stale: bool,
 }
@@ -241,13 +109,15 @@ impl Mapper {
         prior: Option<SketchPrior>,
         config: MapperConfig,
     ) -> Result<Mapper, EngineError> {
-        let (engine, start_pose) = match method {
-            Method::Odometry => (Engine::Odometry, Pose2::IDENTITY),
+        let (front_end, start_pose, back_end) = match method {
+            Method::Odometry => (FrontEnd::Odometry, Pose2::IDENTITY, None),
             Method::Icp => (
-                Engine::Icp {
+                FrontEnd::Icp {
+                    config: config.icp,
                     previous_points: None,
                 },
                 Pose2::IDENTITY,
+                None,
             ),
             Method::Sketch => {
                 let prior = prior.ok_or(EngineError::InvalidParameter {
@@ -255,26 +125,32 @@ impl Mapper {
                     reason: "the sketch method needs a sketch and a start on it".into(),
                 })?;
                 let heading = prior.start.heading_rad;
-                let tracker = SketchTracker::new(prior, &config)?;
+                let back_end = config.loop_closure.clone().map(|c| {
+                    let heading_prior = c.heading_prior_sigma_rad.map(|_| {
+                        WallHeadingPrior::new(
+                            &prior.sketch.lines,
+                            config.seed.wrapping_add(HEADING_PRIOR_SEED_OFFSET),
+                        )
+                    });
+                    BackEnd {
+                        closer: LoopCloser::new(c),
+                        heading_prior,
+                    }
+                });
+                let front_end = SketchFrontEnd::new(prior, &config)?;
                 (
-                    Engine::Sketch(Box::new(tracker)),
+                    FrontEnd::Sketch(Box::new(front_end)),
                     Pose2::new(0.0, 0.0, heading),
+                    back_end,
                 )
             }
         };
-        let closer = match method {
-            Method::Sketch => config.loop_closure.clone().map(LoopCloser::new),
-            _ => None,
-        };
         Ok(Mapper {
-            closer,
-            trajectory_anchors: Vec::new(),
-            scan_log: Vec::new(),
-            grid_stale: false,
             method,
             grid: OccupancyGrid::new(config.grid),
             config,
-            engine,
+            front_end,
+            back_end,
             start_pose,
             odom_origin: None,
             odom_now: None,
@@ -283,6 +159,10 @@ impl Mapper {
             stamp_ns: 0,
             trajectory: Vec::new(),
             health: Health::default(),
+            trajectory_anchors: Vec::new(),
+            scan_log: Vec::new(),
+            map_revision: 0,
+            grid_stale: false,
         })
     }
 
@@ -320,63 +200,44 @@ impl Mapper {
         self.push_trajectory(odom.stamp_ns, current);
     }
 
-    /// Feeds a scan: corrects the pose with the session's method and fuses the scan.
+    /// Feeds a scan: the front end gives its pose, the back end may correct the map, and
+    /// the scan is fused into the grid.
     pub fn on_scan(&mut self, scan: &Scan) {
-        if scan.ranges_m.len() != scan.header.beam_count as usize
-            || !scan.header.angle_min_rad.is_finite()
-            || !scan.header.angle_increment_rad.is_finite()
-        {
+        let Some(frame) = ScanFrame::new(scan) else {
             self.health.scans_skipped += 1;
             return;
-        }
+        };
         // Before any odometry, the robot is taken to be at its start.
         let odom_now = *self.odom_now.get_or_insert(Pose2::IDENTITY);
         if self.odom_origin.is_none() {
             self.odom_origin = Some(odom_now);
             self.odom_at_fix = odom_now;
         }
+        if self.front_end.reads_map() {
+            // A front end aligning against the map must not see the pre-correction one.
+            self.refresh_map();
+        }
         let increment = self.odom_at_fix.between(&odom_now);
-        let predicted = self.map_at_fix.compose(&increment);
-        let points: Vec<Point2> = scan.points().map(|(_, p)| p).collect();
-        let corrected = match &mut self.engine {
-            Engine::Odometry => predicted,
-            Engine::Icp { previous_points } => {
-                let corrected = match previous_points.as_deref() {
-                    Some(reference) if reference.len() >= 10 && points.len() >= 10 => {
-                        let icp = Icp::new(reference, self.config.icp);
-                        let result = icp.align(&points, increment, IcpMode::Full);
-                        if result.converged {
-                            self.map_at_fix.compose(&result.pose)
-                        } else {
-                            predicted
-                        }
-                    }
-                    _ => predicted,
-                };
-                *previous_points = Some(points.clone());
-                corrected
-            }
-            Engine::Sketch(tracker) => {
-                let out = tracker.on_scan(
-                    scan,
-                    &points,
-                    increment,
-                    self.map_at_fix,
-                    predicted,
-                    &self.grid,
-                );
-                self.health.recoveries = out.recoveries;
-                self.health.lines_observed = out.lines_observed;
-                self.health.localization_score = out.localization_score;
-                self.health.meters_per_pixel = Some(out.sketch_pose.meters_per_pixel);
-                out.map_pose
-            }
+        let input = FrontEndInput {
+            frame: &frame,
+            increment,
+            last_pose: self.map_at_fix,
+            predicted: self.map_at_fix.compose(&increment),
+            map_revision: self.map_revision,
+            grid: &self.grid,
         };
-        if !corrected.is_finite() {
+        let output = self.front_end.track(&input);
+        if let Some(report) = output.sketch {
+            self.health.recoveries = report.recoveries;
+            self.health.lines_observed = report.lines_observed;
+            self.health.localization_score = report.localization_score;
+            self.health.meters_per_pixel = Some(report.sketch_pose.meters_per_pixel);
+        }
+        if !output.pose.is_finite() {
             self.health.scans_skipped += 1;
             return;
         }
-        let corrected = self.close_loops(corrected, &points);
+        let corrected = self.add_keyframe(&frame, &output);
         self.map_at_fix = corrected;
         self.odom_at_fix = odom_now;
         self.stamp_ns = self.stamp_ns.max(scan.header.stamp_ns);
@@ -391,48 +252,45 @@ impl Mapper {
         self.push_trajectory(scan.header.stamp_ns, corrected);
     }
 
-    /// Hands a keyframe to the loop-closure back end when one is due; when a loop closes,
-    /// re-anchors the trajectory on the optimized keyframes and returns the scan's
-    /// corrected pose.
-    fn close_loops(&mut self, pose: Pose2, points: &[Point2]) -> Pose2 {
-        if !self
-            .closer
-            .as_ref()
-            .is_some_and(|c| c.wants_keyframe(&pose))
-        {
-            return pose;
-        }
-        let Some(closer) = &mut self.closer else {
+    /// Hands the scan to the back end as a keyframe when one is due; when the back end
+    /// corrects the map, applies the correction (trajectory re-anchored, map revision
+    /// bumped, grid marked for a rebuild) and returns the scan's corrected pose.
+    fn add_keyframe(&mut self, frame: &ScanFrame, output: &FrontEndOutput) -> Pose2 {
+        let pose = output.pose;
+        let Some(back_end) = &mut self.back_end else {
             return pose;
         };
-        let heading_prior = match &mut self.engine {
-            Engine::Sketch(tracker) if closer.uses_heading_priors() => {
-                tracker.heading_prior(points, &pose)
+        if !back_end.closer.wants_keyframe(&pose) {
+            return pose;
+        }
+        let heading_prior = match &mut back_end.heading_prior {
+            Some(prior) if back_end.closer.uses_heading_priors() => {
+                prior.heading_rad(&frame.points, output.scan_lines.as_deref(), &pose)
             }
             _ => None,
         };
-        let outcome = closer.add_keyframe(pose, points, heading_prior);
-        self.health.loop_closures = closer.closures().len() as u32;
+        let outcome = back_end
+            .closer
+            .add_keyframe(pose, &frame.points, heading_prior);
+        self.health.loop_closures = back_end.closer.closures().len() as u32;
         if !outcome.optimized {
             return pose;
         }
-        let keyframes = closer.poses();
+        let keyframes = back_end.closer.poses();
         let corrected = keyframes[outcome.index];
         for (point, anchor) in self.trajectory.iter_mut().zip(&self.trajectory_anchors) {
             if let Some(a) = anchor {
                 point.pose = keyframes[a.keyframe].compose(&a.relative);
             }
         }
+        self.map_revision += 1;
         self.grid_stale = true;
-        if let Engine::Sketch(tracker) = &mut self.engine {
-            tracker.on_map_corrected(points, corrected);
-        }
         corrected
     }
 
     /// `pose` relative to the newest keyframe, when there is a back end with keyframes.
     fn anchor(&self, pose: &Pose2) -> Option<Anchor> {
-        let keyframes = self.closer.as_ref()?.poses();
+        let keyframes = self.back_end.as_ref()?.closer.poses();
         let keyframe = keyframes.len().checked_sub(1)?;
         Some(Anchor {
             keyframe,
@@ -472,10 +330,7 @@ impl Mapper {
         PoseEstimate {
             stamp_ns: self.stamp_ns,
             map: self.current_map_pose(),
-            sketch: match &self.engine {
-                Engine::Sketch(t) => Some(t.sketch_pose()),
-                _ => None,
-            },
+            sketch: self.front_end.sketch_pose(),
         }
     }
 
@@ -489,12 +344,31 @@ impl Mapper {
         &self.trajectory
     }
 
-    /// The map built so far; after a loop closure it is first rebuilt from the logged
-    /// scans at their corrected poses (O(scans · beams), once per correction).
-    pub fn grid(&mut self) -> &OccupancyGrid {
+    /// Corrections of the back end so far (0 without loop closure): a map or a reference
+    /// taken at an older revision is out of date.
+    pub fn map_revision(&self) -> u64 {
+        self.map_revision
+    }
+
+    /// True when the grid holds every fused scan at its current pose; false after a
+    /// correction until [`Mapper::refresh_map`].
+    pub fn map_is_current(&self) -> bool {
+        !self.grid_stale
+    }
+
+    /// The grid as last built: current unless a correction moved the keyframes since
+    /// ([`Mapper::map_is_current`]).
+    pub fn grid(&self) -> &OccupancyGrid {
+        &self.grid
+    }
+
+    /// Rebuilds the grid from the logged scans at their corrected poses when a correction
+    /// moved them (O(scans · beams)), and returns it, current. Mapping-side work: the
+    /// runtime calls it on the session's mapping thread, between scans.
+    pub fn refresh_map(&mut self) -> &OccupancyGrid {
         if self.grid_stale {
-            if let Some(closer) = &self.closer {
-                let keyframes = closer.poses();
+            if let Some(back_end) = &self.back_end {
+                let keyframes = back_end.closer.poses();
                 let mut grid = OccupancyGrid::new(self.config.grid);
                 for (anchor, scan) in &self.scan_log {
                     grid.insert_scan(&keyframes[anchor.keyframe].compose(&anchor.relative), scan);
@@ -512,27 +386,13 @@ impl Mapper {
     }
 }
 
-/// Writes a trajectory as `trajectory.csv` text: header `t,x,y,theta`, seconds, meters,
-/// radians.
-pub fn trajectory_csv(trajectory: &[TrajectoryPoint]) -> String {
-    let mut out = String::from("t,x,y,theta\n");
-    for p in trajectory {
-        out.push_str(&format!(
-            "{:.9},{:.6},{:.6},{:.6}\n",
-            p.stamp_ns as f64 * 1e-9,
-            p.pose.x,
-            p.pose.y,
-            p.pose.heading_rad
-        ));
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sketch::{Sketch, SketchPose};
     use sketchslam_types::Point2;
     use sketchslam_types::ScanHeader;
+    use std::sync::Arc;
 
     fn odom(seq: u64, x: f64, y: f64, th: f64) -> Odometry {
         Odometry {
@@ -573,7 +433,7 @@ mod tests {
             ranges_m: vec![f32::NAN, f32::INFINITY, -1.0, 0.0, f32::NEG_INFINITY],
         };
         m.on_scan(&scan);
-        assert!(m.grid().occupied_points().is_empty());
+        assert!(m.refresh_map().occupied_points().is_empty());
         let empty = Scan {
             header: ScanHeader {
                 beam_count: 0,
@@ -647,8 +507,13 @@ mod tests {
         (sketch, truth)
     }
 
-    #[test]
-    fn a_closed_loop_moves_the_trajectory_and_rebuilds_the_grid() {
+    /// Drives a `sketch` mapper with `config` through [`room_and_laps`] (odometry turning
+    /// 3° too far per meter: ~8 m of heading drift in two laps); `after_scan` sees the
+    /// mapper and the map revision before each scan.
+    fn drive_laps(
+        config: MapperConfig,
+        mut after_scan: impl FnMut(&Mapper, u64),
+    ) -> (Mapper, Vec<Pose2>) {
         let (sketch, truth) = room_and_laps();
         let raycaster = crate::sketch::raycast::SketchRaycaster::new(&sketch);
         let start = truth[0];
@@ -661,8 +526,7 @@ mod tests {
                 meters_per_pixel: 0.05,
             },
         };
-        let mut m = Mapper::new(Method::Sketch, Some(prior), MapperConfig::default()).unwrap();
-        // Odometry turns 3° too far per meter: ~8 m of heading drift in two laps.
+        let mut m = Mapper::new(Method::Sketch, Some(prior), config).unwrap();
         let mut odom_pose = Pose2::IDENTITY;
         for (k, t) in truth.iter().enumerate() {
             if k > 0 {
@@ -691,8 +555,17 @@ mod tests {
                 .collect();
             let mut scan = Scan::centred(fov, 0.05, 15.0, ranges);
             scan.header.stamp_ns = stamp_ns;
+            let revision = m.map_revision();
             m.on_scan(&scan);
+            after_scan(&m, revision);
         }
+        (m, truth)
+    }
+
+    #[test]
+    fn a_closed_loop_moves_the_trajectory_and_rebuilds_the_grid() {
+        let (mut m, truth) = drive_laps(MapperConfig::default(), |_, _| {});
+        let start = truth[0];
         let health = m.health();
         assert!(health.loop_closures >= 1, "{health:?}");
         // The trajectory holds every stamp, and its last pose is the current estimate.
@@ -703,6 +576,27 @@ mod tests {
         let end = start.between(truth.last().unwrap());
         assert!(last.position().distance(&end.position()) < 0.1, "{last:?}");
         // The grid was rebuilt from every scan at the corrected poses.
-        assert_eq!(m.grid().scans_inserted(), truth.len() as u64);
+        assert!(!m.map_is_current());
+        assert_eq!(m.refresh_map().scans_inserted(), truth.len() as u64);
+        assert!(m.map_is_current());
+    }
+
+    #[test]
+    fn a_front_end_reading_the_map_never_sees_a_pre_correction_map() {
+        let config = MapperConfig {
+            sketch_icp_reference: IcpReference::Map,
+            ..MapperConfig::default()
+        };
+        let mut corrections = 0;
+        let (m, _) = drive_laps(config, |m, revision_before| {
+            if m.map_revision() == revision_before {
+                // No correction at this scan: the stale map (if any) was rebuilt before the
+                // front end ran, and this scan was fused into it.
+                assert!(m.map_is_current(), "stale map after a scan without correction");
+            } else {
+                corrections += 1;
+            }
+        });
+        assert!(corrections >= 1, "{:?}", m.health());
     }
 }

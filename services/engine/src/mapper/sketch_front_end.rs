@@ -1,5 +1,5 @@
-//! The `sketch` method's per-scan step (the paper's Fig. 2 pipeline), between the mapper
-//! and the pure algorithms:
+//! The `sketch` method's front end: the paper's Fig. 2 pipeline for one scan, called once
+//! per scan by the mapper ([`super::front_end`]) with the odometry prediction:
 //!
 //! 1. MCL on the drawing with scale: predict with the odometry increment (eq. 1–2), weigh
 //!    with the scan (eq. 3), detect breakdown and recover (section 3.2);
@@ -11,14 +11,17 @@
 //!    the heading cannot drift;
 //! 4. point-to-line ICP with that heading held corrects the position (eq. 6), against the
 //!    map built so far or the previous scan (`MapperConfig::sketch_icp_reference`).
+//!
+//! It returns the pose, MCL's report and the scan lines it extracted; it never calls the
+//! back end. When the back end has moved the map (`FrontEndInput::map_revision`), the ICP
+//! reference built on the old poses is dropped and the previous scan is placed at the
+//! corrected `last_pose`.
 
-use super::{IcpReference, MapperConfig};
+use super::config::{IcpReference, MapperConfig, SketchPrior};
+use super::front_end::{FrontEndInput, FrontEndOutput, SketchReport};
 use crate::EngineError;
 use crate::lines::matching::{HeadingAggregate, MatchConfig, heading_correction, match_lines};
 use crate::lines::ransac::{RansacConfig, extract_lines};
-use crate::lines::wall_directions::{
-    DirectionMatchConfig, dominant_directions, heading_to_directions,
-};
 use crate::localization::line_observation::{
     LineObservationConfig, observe_lines, observed_indices,
 };
@@ -32,10 +35,8 @@ use crate::sketch::raycast::SketchRaycaster;
 use crate::sketch::{Sketch, SketchPose};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use sketchslam_types::{Point2, Pose2, Scan};
+use sketchslam_types::{Point2, Pose2};
 use std::sync::Arc;
-
-use super::SketchPrior;
 
 /// Map points farther than this from the robot are left out of the ICP reference, meters.
 const ICP_REFERENCE_RADIUS_M: f64 = 50.0;
@@ -58,25 +59,8 @@ const MIN_DISTINCT_LINES: usize = 2;
 /// Eq. (5) pairs farther than this from their median are left out of the mean, radians.
 const HEADING_INLIER_TOLERANCE_RAD: f64 = 0.1;
 
-/// A direction holding less than this share of the drawing's line length is not dominant.
-const MIN_DIRECTION_SHARE: f64 = 0.1;
-
-/// What one scan did to the sketch method's state.
-pub(super) struct TrackOutput {
-    /// Corrected pose in the map frame.
-    pub map_pose: Pose2,
-    /// MCL's estimate on the drawing.
-    pub sketch_pose: SketchPose,
-    /// Recoveries so far.
-    pub recoveries: u32,
-    /// Sketch lines observed at this scan.
-    pub lines_observed: usize,
-    /// MCL's localization score, 0..1.
-    pub localization_score: f64,
-}
-
-/// The `sketch` method's state.
-pub(super) struct SketchTracker {
+/// The `sketch` method's front end.
+pub(super) struct SketchFrontEnd {
     sketch: Arc<Sketch>,
     raycaster: SketchRaycaster,
     mcl: SketchMcl,
@@ -92,22 +76,21 @@ pub(super) struct SketchTracker {
     ransac: RansacConfig,
     icp: IcpConfig,
     reference_kind: IcpReference,
-    /// The ICP reference and the pose it was built around.
-    reference: Option<(Icp, Pose2)>,
+    /// The ICP reference, the pose it was built around and the map revision it was
+    /// built at.
+    reference: Option<(Icp, Pose2, u64)>,
     scans_since_reference: usize,
     /// Share of eq. (5)'s heading difference applied per scan (1 = the paper's hard
     /// correction with translation-only ICP).
     heading_gain: f64,
     /// Heading differences within this band are taken as drawing error, radians.
     heading_deadband_rad: f64,
-    /// The previous scan's points in the map frame.
+    /// The previous scan's points, robot frame (placed at the input's `last_pose`).
     previous_points: Vec<Point2>,
-    /// The drawing's dominant wall directions in the map frame, radians in [0, π).
-    directions: Vec<f64>,
 }
 
-impl SketchTracker {
-    /// A tracker on `prior`'s drawing, starting at its marked start and scale guess.
+impl SketchFrontEnd {
+    /// A front end on `prior`'s drawing, starting at its marked start and scale guess.
     pub(super) fn new(prior: SketchPrior, config: &MapperConfig) -> Result<Self, EngineError> {
         let start = prior.start;
         let finite = start.u_px.is_finite()
@@ -152,7 +135,6 @@ impl SketchTracker {
             heading_gain: config.sketch_heading_gain.clamp(0.0, 1.0),
             heading_deadband_rad: config.sketch_heading_deadband_rad.max(0.0),
             previous_points: Vec::new(),
-            directions: dominant_directions(&prior.sketch.lines, MIN_DIRECTION_SHARE),
             sketch: prior.sketch,
         })
     }
@@ -162,17 +144,20 @@ impl SketchTracker {
         self.mcl.estimate()
     }
 
-    /// One scan: `increment` is the odometry motion since the last scan (robot frame),
-    /// `predicted` the last corrected map pose carried forward by it.
-    pub(super) fn on_scan(
-        &mut self,
-        scan: &Scan,
-        points: &[Point2],
-        increment: Pose2,
-        _map_at_fix: Pose2,
-        predicted: Pose2,
-        grid: &OccupancyGrid,
-    ) -> TrackOutput {
+    /// True when the ICP reference comes from the grid.
+    pub(super) fn reads_map(&self) -> bool {
+        self.reference_kind == IcpReference::Map
+    }
+
+    /// One scan: steps 1–4 of the module docs.
+    pub(super) fn track(&mut self, input: &FrontEndInput) -> FrontEndOutput {
+        let FrontEndInput {
+            frame,
+            increment,
+            predicted,
+            ..
+        } = *input;
+        let (scan, points) = (frame.scan, &frame.points[..]);
         // 1. MCL on the drawing (eq. 1–3, section 3.2).
         self.mcl.predict(increment, &mut self.rng);
         let outcome = self.mcl.update(scan, &self.raycaster);
@@ -219,17 +204,18 @@ impl SketchTracker {
         // predicted map heading (the map frame's axes are the drawing's), so the correction
         // is the heading's error, not MCL's.
         let mut delta_rad = None;
+        let mut scan_lines = None;
         // Only a sound localization on the drawing picks the right lines: a lost MCL
         // pairs scan walls with the wrong sketch walls and would steer the heading.
         let trusted = !failed && self.mcl.score() >= MIN_TRUSTED_SCORE;
         if trusted && !observed.is_empty() && points.len() >= 10 {
-            let scan_lines = extract_lines(points, &self.ransac, &mut self.rng);
+            let extracted = extract_lines(points, &self.ransac, &mut self.rng);
             let lines: Vec<_> = observed.iter().map(|&i| self.sketch.lines[i]).collect();
             let view = SketchPose {
                 heading_rad: predicted.heading_rad,
                 ..sketch_pose
             };
-            let pairs = match_lines(&lines, &view, &scan_lines, &MatchConfig::default());
+            let pairs = match_lines(&lines, &view, &extracted, &MatchConfig::default());
             let aggregate = HeadingAggregate::InlierMean {
                 tolerance_rad: HEADING_INLIER_TOLERANCE_RAD,
             };
@@ -240,6 +226,7 @@ impl SketchTracker {
             if distinct.len() >= MIN_DISTINCT_LINES {
                 delta_rad = heading_correction(&pairs, aggregate);
             }
+            scan_lines = Some(extracted);
         }
 
         // 4. Position (eq. 6) by point-to-line ICP. With the paper's hard correction
@@ -256,7 +243,7 @@ impl SketchTracker {
         } else {
             IcpMode::Full
         };
-        let aligned = self.align(grid, points, guess, mode);
+        let aligned = self.align(input, guess, mode);
         let map_pose = match delta_rad {
             // eq. (5)'s difference measured at the prediction, re-referred to the ICP heading.
             Some(d) if !hard => {
@@ -273,68 +260,55 @@ impl SketchTracker {
             }
             _ => aligned,
         };
-        self.previous_points = points.iter().map(|p| map_pose.transform_point(p)).collect();
+        self.previous_points = points.to_vec();
         self.scans_since_reference += 1;
-        TrackOutput {
-            map_pose,
-            sketch_pose,
-            recoveries: self.mcl.recoveries() as u32,
-            lines_observed: observed.len(),
-            localization_score: self.mcl.score(),
+        FrontEndOutput {
+            pose: map_pose,
+            scan_lines,
+            sketch: Some(SketchReport {
+                sketch_pose,
+                recoveries: self.mcl.recoveries() as u32,
+                lines_observed: observed.len(),
+                localization_score: self.mcl.score(),
+            }),
         }
-    }
-
-    /// The map heading the drawing's dominant wall directions give a keyframe whose scan
-    /// `points` (robot frame) were taken at `pose`; see [`crate::lines::wall_directions`].
-    pub(super) fn heading_prior(&mut self, points: &[Point2], pose: &Pose2) -> Option<f64> {
-        if self.directions.is_empty() || points.len() < 10 {
-            return None;
-        }
-        let lines = extract_lines(points, &self.ransac, &mut self.rng);
-        let config = DirectionMatchConfig::default();
-        heading_to_directions(&lines, pose.heading_rad, &self.directions, &config)
-            .map(|correction| pose.heading_rad + correction)
-    }
-
-    /// The map frame was corrected (a loop closed): the scan just fused now lies at
-    /// `map_pose`, and the ICP reference, built on the old poses, is dropped.
-    pub(super) fn on_map_corrected(&mut self, points: &[Point2], map_pose: Pose2) {
-        self.previous_points = points.iter().map(|p| map_pose.transform_point(p)).collect();
-        self.reference = None;
     }
 
     /// Point-to-line ICP of the scan against the reference (map frame), from `guess`;
     /// the guess itself when there is too little to align with or ICP does not converge.
-    fn align(
-        &mut self,
-        grid: &OccupancyGrid,
-        points: &[Point2],
-        guess: Pose2,
-        mode: IcpMode,
-    ) -> Pose2 {
+    fn align(&mut self, input: &FrontEndInput, guess: Pose2, mode: IcpMode) -> Pose2 {
+        let points = &input.frame.points[..];
         if points.len() < 10 {
             return guess;
         }
-        let stale = self.reference.as_ref().is_none_or(|(_, at)| {
-            self.scans_since_reference >= REFERENCE_REFRESH_SCANS
+        let stale = self.reference.as_ref().is_none_or(|(_, at, revision)| {
+            *revision != input.map_revision
+                || self.scans_since_reference >= REFERENCE_REFRESH_SCANS
                 || at.position().distance(&guess.position()) > REFERENCE_REFRESH_M
         });
         if stale {
             let centre = guess.position();
+            // The previous scan where the map holds it now.
+            let previous: Vec<Point2> = self
+                .previous_points
+                .iter()
+                .map(|p| input.last_pose.transform_point(p))
+                .collect();
+            let grid: &OccupancyGrid = input.grid;
             let points = match self.reference_kind {
-                IcpReference::PreviousScan => self.previous_points.clone(),
+                IcpReference::PreviousScan => previous,
                 IcpReference::Map => {
                     let mut pts = grid.occupied_points_near(centre, ICP_REFERENCE_RADIUS_M);
                     // The grid holds the last scans only once their cells pass the
                     // occupancy threshold: add the previous scan so a new area has support.
-                    pts.extend_from_slice(&self.previous_points);
+                    pts.extend_from_slice(&previous);
                     pts
                 }
             };
-            self.reference = Some((Icp::new(&points, self.icp), guess));
+            self.reference = Some((Icp::new(&points, self.icp), guess, input.map_revision));
             self.scans_since_reference = 0;
         }
-        let Some((icp, _)) = &self.reference else {
+        let Some((icp, _, _)) = &self.reference else {
             return guess;
         };
         if icp.len() < 10 {

@@ -1,0 +1,71 @@
+//! A mapper's settings, and the drawing a `sketch` session starts from.
+
+use crate::back_end::loop_closure::LoopClosureConfig;
+use crate::localization::mcl::MclConfig;
+use crate::mapping::grid::GridConfig;
+use crate::scan_matching::icp::IcpConfig;
+use crate::sketch::{Sketch, SketchPose};
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+/// The drawing a `sketch` session localizes on, with the start a person marked on it.
+#[derive(Debug, Clone)]
+pub struct SketchPrior {
+    /// The processed drawing.
+    pub sketch: Arc<Sketch>,
+    /// The start marked on the drawing and the person's guess of its scale.
+    pub start: SketchPose,
+}
+
+/// Where ICP finds the reference points a new scan is aligned to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum IcpReference {
+    /// The previous scan, as the paper does.
+    PreviousScan,
+    /// Occupied cells of the map built so far (plus the previous scan).
+    Map,
+}
+
+/// Settings of a mapper; the defaults are the ones the evaluation reports.
+#[derive(Debug, Clone)]
+pub struct MapperConfig {
+    /// The occupancy grid.
+    pub grid: GridConfig,
+    /// MCL on the sketch.
+    pub mcl: MclConfig,
+    /// ICP (both the baseline and the sketch method's translation step).
+    pub icp: IcpConfig,
+    /// Reference of the sketch method's ICP.
+    pub sketch_icp_reference: IcpReference,
+    /// Share of the eq. (5) heading correction applied per scan, 0..1. 1 is the paper:
+    /// the heading is replaced and ICP solves the translation only. Below 1 ICP solves
+    /// the full pose against the map and the sketch's line directions pull its heading by
+    /// this share of their difference per scan — a drawn wall a few degrees off then
+    /// bends the map less.
+    pub sketch_heading_gain: f64,
+    /// With a gain below 1: heading differences within this band are taken as the
+    /// drawing's own angular error and ignored, radians (a person draws a wall's direction
+    /// within a few degrees).
+    pub sketch_heading_deadband_rad: f64,
+    /// Loop closure of the `sketch` method; `None` keeps the paper's front end alone.
+    /// The baselines never close loops (`icp` is the paper's frame-to-frame ICP-SLAM).
+    pub loop_closure: Option<LoopClosureConfig>,
+    /// Seed of every random draw of the session.
+    pub seed: u64,
+}
+
+impl Default for MapperConfig {
+    fn default() -> Self {
+        Self {
+            grid: GridConfig::default(),
+            mcl: MclConfig::default(),
+            icp: IcpConfig::default(),
+            sketch_icp_reference: IcpReference::PreviousScan,
+            sketch_heading_gain: 0.05,
+            sketch_heading_deadband_rad: 4f64.to_radians(),
+            loop_closure: Some(LoopClosureConfig::default()),
+            seed: 1,
+        }
+    }
+}

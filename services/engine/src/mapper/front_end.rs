@@ -1,0 +1,130 @@
+//! The front end: one scan's map pose, from the odometry prediction and the scan itself.
+//!
+//! First stage of the mapper's per-scan flow (see [`super`]): the mapper hands it a
+//! [`FrontEndInput`] and gets a [`FrontEndOutput`] back; it never calls back into the
+//! mapper or the back end. After the back end corrects the map, the input's
+//! `map_revision` changes and a front end drops what it built on the old poses.
+//!
+//! - `odometry`: the prediction itself;
+//! - `icp`: frame-to-frame point-to-line ICP seeded by the odometry increment (the paper's
+//!   "conventional ICP-SLAM");
+//! - `sketch`: the paper's method ([`super::sketch_front_end`]).
+
+use super::frame::ScanFrame;
+use super::sketch_front_end::SketchFrontEnd;
+use crate::lines::ransac::ScanLine;
+use crate::mapping::grid::OccupancyGrid;
+use crate::scan_matching::icp::{Icp, IcpConfig, IcpMode};
+use crate::sketch::SketchPose;
+use sketchslam_types::{Point2, Pose2};
+
+/// Everything the front end needs for one scan.
+#[derive(Debug, Clone, Copy)]
+pub struct FrontEndInput<'a> {
+    /// The scan and its points.
+    pub frame: &'a ScanFrame<'a>,
+    /// Odometry motion since the last scan, robot frame.
+    pub increment: Pose2,
+    /// The last scan's map pose, as corrected by the back end if it moved the map since.
+    pub last_pose: Pose2,
+    /// `last_pose` carried forward by `increment`.
+    pub predicted: Pose2,
+    /// Corrections of the back end so far: what was built before the latest one is stale.
+    pub map_revision: u64,
+    /// The map so far, current (the mapper rebuilds it first for a front end that reads it).
+    pub grid: &'a OccupancyGrid,
+}
+
+/// What the drawing side of a `sketch` front end reports for a scan.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SketchReport {
+    /// MCL's estimate on the drawing.
+    pub sketch_pose: SketchPose,
+    /// Recoveries so far.
+    pub recoveries: u32,
+    /// Sketch lines observed at this scan (eq. 4).
+    pub lines_observed: usize,
+    /// MCL's localization score, 0..1.
+    pub localization_score: f64,
+}
+
+/// What the front end made of one scan.
+#[derive(Debug, Clone)]
+pub struct FrontEndOutput {
+    /// The scan's map pose (may be non-finite: the mapper then skips the scan).
+    pub pose: Pose2,
+    /// The scan's RANSAC lines (robot frame) when the front end extracted them, so the
+    /// back end does not extract them a second time.
+    pub scan_lines: Option<Vec<ScanLine>>,
+    /// The drawing side's report (`sketch` only).
+    pub sketch: Option<SketchReport>,
+}
+
+impl FrontEndOutput {
+    fn pose(pose: Pose2) -> Self {
+        Self {
+            pose,
+            scan_lines: None,
+            sketch: None,
+        }
+    }
+}
+
+/// One session's front end.
+pub(super) enum FrontEnd {
+    /// Dead reckoning.
+    Odometry,
+    /// Frame-to-frame ICP; holds the previous scan's points, robot frame.
+    Icp {
+        config: IcpConfig,
+        previous_points: Option<Vec<Point2>>,
+    },
+    /// The paper's method on a drawing.
+    Sketch(Box<SketchFrontEnd>),
+}
+
+impl FrontEnd {
+    /// The map pose of `input`'s scan.
+    pub(super) fn track(&mut self, input: &FrontEndInput) -> FrontEndOutput {
+        match self {
+            FrontEnd::Odometry => FrontEndOutput::pose(input.predicted),
+            FrontEnd::Icp {
+                config,
+                previous_points,
+            } => {
+                let points = &input.frame.points;
+                let pose = match previous_points.as_deref() {
+                    Some(reference) if reference.len() >= 10 && points.len() >= 10 => {
+                        let icp = Icp::new(reference, *config);
+                        let result = icp.align(points, input.increment, IcpMode::Full);
+                        if result.converged {
+                            input.last_pose.compose(&result.pose)
+                        } else {
+                            input.predicted
+                        }
+                    }
+                    _ => input.predicted,
+                };
+                *previous_points = Some(points.clone());
+                FrontEndOutput::pose(pose)
+            }
+            FrontEnd::Sketch(front_end) => front_end.track(input),
+        }
+    }
+
+    /// True when [`FrontEnd::track`] reads the grid (it must then be current).
+    pub(super) fn reads_map(&self) -> bool {
+        match self {
+            FrontEnd::Sketch(front_end) => front_end.reads_map(),
+            _ => false,
+        }
+    }
+
+    /// MCL's current estimate on the drawing (`sketch` only).
+    pub(super) fn sketch_pose(&self) -> Option<SketchPose> {
+        match self {
+            FrontEnd::Sketch(front_end) => Some(front_end.sketch_pose()),
+            _ => None,
+        }
+    }
+}
