@@ -1,5 +1,6 @@
-//! The service's own Prometheus metrics: the scan processing time histogram (the per-session
-//! counters are read from the sessions when `/metrics` is rendered).
+//! The service's Prometheus metrics: the scan processing time histogram, and the `/metrics`
+//! text rendered from it and the sessions' status (the per-session counters are read from
+//! the sessions when `/metrics` is asked for; the registry collects them).
 //!
 //! Written by hand rather than with a metrics crate: the text exposition format for a few
 //! counters and one histogram is a screenful of code, and the per-session series come and
@@ -7,6 +8,9 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
+
+use sketchslam_api::router::escape_label;
+use sketchslam_api::{SessionInfo, SessionState};
 
 /// Upper bounds of the processing time buckets, seconds.
 pub const BUCKETS_S: [f64; 11] = [
@@ -56,6 +60,95 @@ impl Histogram {
         ));
         out.push_str(&format!("{name}_count {count}\n"));
     }
+}
+
+/// The `/metrics` text (Prometheus exposition format): one series per session and family
+/// (`rows` holds each session's status and its odometry readings lost), sessions by
+/// state, stored sketches, and the scan processing histogram. Labels are escaped; their
+/// values come from session ids, robot ids and method names only, so the series are
+/// bounded by the sessions the service holds.
+pub fn render_metrics(
+    rows: &[(SessionInfo, u64)],
+    sketches: usize,
+    histogram: &Histogram,
+) -> String {
+    let mut out = String::new();
+    let labels = |i: &SessionInfo| {
+        format!(
+            "session=\"{}\",robot=\"{}\",method=\"{}\"",
+            escape_label(&i.id),
+            escape_label(&i.robot_id),
+            i.method.as_str()
+        )
+    };
+    let mut family =
+        |name: &str, kind: &str, help: &str, value: &dyn Fn(&SessionInfo, u64) -> String| {
+            out.push_str(&format!("# HELP {name} {help}\n# TYPE {name} {kind}\n"));
+            for (info, odo) in rows {
+                out.push_str(&format!(
+                    "{name}{{{}}} {}\n",
+                    labels(info),
+                    value(info, *odo)
+                ));
+            }
+        };
+    family(
+        "sketchslam_scans_processed_total",
+        "counter",
+        "Scans fused into the session's map.",
+        &|i, _| i.scans_processed.to_string(),
+    );
+    family(
+        "sketchslam_scans_lost_total",
+        "counter",
+        "Scans missing from the robot's stream (sequence gaps).",
+        &|i, _| i.scans_lost.to_string(),
+    );
+    family(
+        "sketchslam_odometry_lost_total",
+        "counter",
+        "Odometry readings missing from the robot's stream (running sessions).",
+        &|_, o| o.to_string(),
+    );
+    family(
+        "sketchslam_recoveries_total",
+        "counter",
+        "Recoveries of localization on the sketch.",
+        &|i, _| i.recoveries.to_string(),
+    );
+    family(
+        "sketchslam_loop_closures_total",
+        "counter",
+        "Loops closed by the sketch method's back end.",
+        &|i, _| i.loop_closures.to_string(),
+    );
+    family(
+        "sketchslam_localization_score",
+        "gauge",
+        "Localization score in [0, 1].",
+        &|i, _| i.localization_score.to_string(),
+    );
+    out.push_str(
+        "# HELP sketchslam_sessions Sessions by state.\n# TYPE sketchslam_sessions gauge\n",
+    );
+    for (state, name) in [
+        (SessionState::WaitingForData, "waiting_for_data"),
+        (SessionState::Mapping, "mapping"),
+        (SessionState::Stopped, "stopped"),
+        (SessionState::Failed, "failed"),
+    ] {
+        let n = rows.iter().filter(|(i, _)| i.state == state).count();
+        out.push_str(&format!("sketchslam_sessions{{state=\"{name}\"}} {n}\n"));
+    }
+    out.push_str(&format!(
+        "# HELP sketchslam_sketches Stored sketches.\n# TYPE sketchslam_sketches gauge\nsketchslam_sketches {sketches}\n"
+    ));
+    out.push_str(
+        "# HELP sketchslam_scan_processing_seconds Time to process one scan (all sessions).\n\
+         # TYPE sketchslam_scan_processing_seconds histogram\n",
+    );
+    histogram.render("sketchslam_scan_processing_seconds", &mut out);
+    out
 }
 
 #[cfg(test)]

@@ -9,7 +9,6 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
 use axum::body::Bytes;
-use sketchslam_api::router::escape_label;
 use sketchslam_api::{
     ApiError, Backend, CreateSessionRequest, MappingMethod, OccupancyGridResponse, PixelPoint,
     PoseResponse, SessionEvent, SessionInfo, SessionState, SketchInfo, SketchLineInfo,
@@ -20,7 +19,7 @@ use tokio::sync::broadcast;
 
 use super::RuntimeError;
 use super::config::RegistryConfig;
-use super::metrics::Histogram;
+use super::metrics::{Histogram, render_metrics};
 use super::session::{Session, lock, now_unix_ms};
 use super::storage::{SessionMeta, SketchMeta, Storage};
 use sketchslam_engine::EngineError;
@@ -511,83 +510,6 @@ impl Backend for Registry {
             })
             .collect();
         let sketches = lock(&self.sketches).len();
-        let mut out = String::new();
-        let labels = |i: &SessionInfo| {
-            format!(
-                "session=\"{}\",robot=\"{}\",method=\"{}\"",
-                escape_label(&i.id),
-                escape_label(&i.robot_id),
-                i.method.as_str()
-            )
-        };
-        let mut family =
-            |name: &str, kind: &str, help: &str, value: &dyn Fn(&SessionInfo, u64) -> String| {
-                out.push_str(&format!("# HELP {name} {help}\n# TYPE {name} {kind}\n"));
-                for (info, odo) in &rows {
-                    out.push_str(&format!(
-                        "{name}{{{}}} {}\n",
-                        labels(info),
-                        value(info, *odo)
-                    ));
-                }
-            };
-        family(
-            "sketchslam_scans_processed_total",
-            "counter",
-            "Scans fused into the session's map.",
-            &|i, _| i.scans_processed.to_string(),
-        );
-        family(
-            "sketchslam_scans_lost_total",
-            "counter",
-            "Scans missing from the robot's stream (sequence gaps).",
-            &|i, _| i.scans_lost.to_string(),
-        );
-        family(
-            "sketchslam_odometry_lost_total",
-            "counter",
-            "Odometry readings missing from the robot's stream (running sessions).",
-            &|_, o| o.to_string(),
-        );
-        family(
-            "sketchslam_recoveries_total",
-            "counter",
-            "Recoveries of localization on the sketch.",
-            &|i, _| i.recoveries.to_string(),
-        );
-        family(
-            "sketchslam_loop_closures_total",
-            "counter",
-            "Loops closed by the sketch method's back end.",
-            &|i, _| i.loop_closures.to_string(),
-        );
-        family(
-            "sketchslam_localization_score",
-            "gauge",
-            "Localization score in [0, 1].",
-            &|i, _| i.localization_score.to_string(),
-        );
-        out.push_str(
-            "# HELP sketchslam_sessions Sessions by state.\n# TYPE sketchslam_sessions gauge\n",
-        );
-        for (state, name) in [
-            (SessionState::WaitingForData, "waiting_for_data"),
-            (SessionState::Mapping, "mapping"),
-            (SessionState::Stopped, "stopped"),
-            (SessionState::Failed, "failed"),
-        ] {
-            let n = rows.iter().filter(|(i, _)| i.state == state).count();
-            out.push_str(&format!("sketchslam_sessions{{state=\"{name}\"}} {n}\n"));
-        }
-        out.push_str(&format!(
-            "# HELP sketchslam_sketches Stored sketches.\n# TYPE sketchslam_sketches gauge\nsketchslam_sketches {sketches}\n"
-        ));
-        out.push_str(
-            "# HELP sketchslam_scan_processing_seconds Time to process one scan (all sessions).\n\
-             # TYPE sketchslam_scan_processing_seconds histogram\n",
-        );
-        self.histogram
-            .render("sketchslam_scan_processing_seconds", &mut out);
-        out
+        render_metrics(&rows, sketches, &self.histogram)
     }
 }

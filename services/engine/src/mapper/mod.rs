@@ -592,7 +592,10 @@ mod tests {
             if m.map_revision() == revision_before {
                 // No correction at this scan: the stale map (if any) was rebuilt before the
                 // front end ran, and this scan was fused into it.
-                assert!(m.map_is_current(), "stale map after a scan without correction");
+                assert!(
+                    m.map_is_current(),
+                    "stale map after a scan without correction"
+                );
             } else {
                 corrections += 1;
             }
