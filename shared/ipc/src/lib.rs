@@ -27,16 +27,16 @@
 //!   the one lost; with a 32-scan buffer a slow subscriber lags at most 1.6 s at 20 Hz.
 //! - [`Delivery::LockStep`]: the publisher waits while a subscriber's buffer is full. While it
 //!   waits it checks every [`DEAD_CHECK_PERIOD`] whether a node died (a SIGKILLed subscriber
-//!   never frees its buffer, IPC trap 2); if so, or when `backpressure_timeout` passes, the
+//!   never frees its buffer, transport fact 2 in docs/architecture.md); if so, or when `backpressure_timeout` passes, the
 //!   sample is discarded for that subscriber (counted) and dead nodes are cleaned up, so the
 //!   next send does not wait again. Before the first sample the publisher waits for the
-//!   subscriber to be connected ([`RobotPublisher::wait_for_subscribers`], IPC trap 1).
+//!   subscriber to be connected ([`RobotPublisher::wait_for_subscribers`], transport fact 1 in docs/architecture.md).
 //!
 //! The subscriber ([`RobotSubscriber`]) does not need to know the mode.
 //!
 //! # Threads
 //!
-//! iceoryx2 `ipc::Service` ports are neither `Send` nor `Sync` (IPC trap 4): a
+//! iceoryx2 `ipc::Service` ports are neither `Send` nor `Sync` (transport fact 4 in docs/architecture.md): a
 //! [`RobotPublisher`] or [`RobotSubscriber`] is created, used and dropped on one thread.
 //! Hand the owned [`SensorEvent`](sketchslam_types::SensorEvent)s to other threads over channels.
 
