@@ -10,65 +10,11 @@
 //!   "conventional ICP-SLAM");
 //! - `sketch`: the paper's method ([`super::sketch_front_end`]).
 
-use super::frame::ScanFrame;
+use super::front_end_io::{FrontEndInput, FrontEndOutput};
 use super::sketch_front_end::SketchFrontEnd;
-use crate::lines::ransac::ScanLine;
-use crate::mapping::grid::OccupancyGrid;
 use crate::scan_matching::icp::{Icp, IcpConfig, IcpMode};
 use crate::sketch::SketchPose;
-use sketchslam_types::{Point2, Pose2};
-
-/// Everything the front end needs for one scan.
-#[derive(Debug, Clone, Copy)]
-pub struct FrontEndInput<'a> {
-    /// The scan and its points.
-    pub frame: &'a ScanFrame<'a>,
-    /// Odometry motion since the last scan, robot frame.
-    pub increment: Pose2,
-    /// The last scan's map pose, as corrected by the back end if it moved the map since.
-    pub last_pose: Pose2,
-    /// `last_pose` carried forward by `increment`.
-    pub predicted: Pose2,
-    /// Corrections of the back end so far: what was built before the latest one is stale.
-    pub map_revision: u64,
-    /// The map so far, current (the mapper rebuilds it first for a front end that reads it).
-    pub grid: &'a OccupancyGrid,
-}
-
-/// What the drawing side of a `sketch` front end reports for a scan.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SketchReport {
-    /// MCL's estimate on the drawing.
-    pub sketch_pose: SketchPose,
-    /// Recoveries so far.
-    pub recoveries: u32,
-    /// Sketch lines observed at this scan (eq. 4).
-    pub lines_observed: usize,
-    /// MCL's localization score, 0..1.
-    pub localization_score: f64,
-}
-
-/// What the front end made of one scan.
-#[derive(Debug, Clone)]
-pub struct FrontEndOutput {
-    /// The scan's map pose (may be non-finite: the mapper then skips the scan).
-    pub pose: Pose2,
-    /// The scan's RANSAC lines (robot frame) when the front end extracted them, so the
-    /// back end does not extract them a second time.
-    pub scan_lines: Option<Vec<ScanLine>>,
-    /// The drawing side's report (`sketch` only).
-    pub sketch: Option<SketchReport>,
-}
-
-impl FrontEndOutput {
-    fn pose(pose: Pose2) -> Self {
-        Self {
-            pose,
-            scan_lines: None,
-            sketch: None,
-        }
-    }
-}
+use sketchslam_types::Point2;
 
 /// One session's front end.
 pub(super) enum FrontEnd {

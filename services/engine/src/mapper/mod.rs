@@ -36,13 +36,14 @@
 mod config;
 mod frame;
 mod front_end;
+mod front_end_io;
 mod method;
 mod output;
 mod sketch_front_end;
 
 pub use config::{IcpReference, MapperConfig, SketchPrior};
 pub use frame::ScanFrame;
-pub use front_end::{FrontEndInput, FrontEndOutput, SketchReport};
+pub use front_end_io::{FrontEndInput, FrontEndOutput, SketchReport};
 pub use method::Method;
 pub use output::{Health, PoseEstimate, TrajectoryPoint, trajectory_csv};
 

@@ -1,5 +1,5 @@
 //! The `sketch` method's front end: the paper's Fig. 2 pipeline for one scan, called once
-//! per scan by the mapper ([`super::front_end`]) with the odometry prediction:
+//! per scan by the mapper (through [`super::front_end`]) with the odometry prediction:
 //!
 //! 1. MCL on the drawing with scale: predict with the odometry increment (eq. 1–2), weigh
 //!    with the scan (eq. 3), detect breakdown and recover (section 3.2);
@@ -18,7 +18,7 @@
 //! corrected `last_pose`.
 
 use super::config::{IcpReference, MapperConfig, SketchPrior};
-use super::front_end::{FrontEndInput, FrontEndOutput, SketchReport};
+use super::front_end_io::{FrontEndInput, FrontEndOutput, SketchReport};
 use crate::EngineError;
 use crate::lines::matching::{HeadingAggregate, MatchConfig, heading_correction, match_lines};
 use crate::lines::ransac::{RansacConfig, extract_lines};
