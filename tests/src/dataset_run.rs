@@ -98,8 +98,7 @@ pub fn run_dataset_in_process(
         out_dir.join("trajectory.csv"),
         trajectory_csv(mapper.trajectory()),
     )?;
-    let truth_rows: Vec<(f64, Pose2)> = truth_poses.iter().map(|p| (p.t_s, p.pose)).collect();
-    sketchslam_simulator::truth::write_truth_csv(&out_dir.join("truth.csv"), &truth_rows)?;
+    sketchslam_simulator::truth::write_truth_csv(&out_dir.join("truth.csv"), &truth_poses)?;
     let relations = dataset_relations(dataset)?;
     let mut result = score_dataset_artifacts(out_dir, &truth_poses, &relations)?;
     if let (Some(cfg), Some(sketch_pose)) = (sketch, mapper.pose().sketch) {

@@ -15,6 +15,7 @@ use sketchslam_engine::sketch::{Sketch, SketchPose};
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
 use sketchslam_simulator::simulation::Simulation;
 use sketchslam_simulator::world::World;
+use sketchslam_types::trajectory_csv;
 use sketchslam_types::{Point2, Pose2, SensorEvent};
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -174,8 +175,7 @@ pub fn run_in_process(
         out_dir.join("trajectory.csv"),
         trajectory_csv(mapper.trajectory()),
     )?;
-    let truth_rows: Vec<(f64, Pose2)> = truth_poses.iter().map(|p| (p.t_s, p.pose)).collect();
-    sketchslam_simulator::truth::write_truth_csv(&out_dir.join("truth.csv"), &truth_rows)?;
+    sketchslam_simulator::truth::write_truth_csv(&out_dir.join("truth.csv"), &truth_poses)?;
     let health = mapper.health();
     let truth = Truth {
         poses: truth_poses,
@@ -303,34 +303,17 @@ pub fn occupied_points(
     out
 }
 
-/// Reads a `t,x,y,theta` CSV (trajectory or truth).
+/// Reads a `t,x,y,theta` CSV (trajectory or truth), headings wrapped to (−π, π].
 pub fn read_trajectory_csv(path: &Path) -> Result<Vec<StampedPose>> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     parse_trajectory_csv(&text).with_context(|| format!("parsing {}", path.display()))
 }
 
-/// Parses `t,x,y,theta` CSV text.
+/// Parses `t,x,y,theta` CSV text ([`trajectory_csv::parse`]), headings wrapped to (−π, π].
 pub fn parse_trajectory_csv(text: &str) -> Result<Vec<StampedPose>> {
-    let mut lines = text.lines();
-    anyhow::ensure!(
-        lines.next().map(str::trim) == Some("t,x,y,theta"),
-        "header is not t,x,y,theta"
-    );
-    lines
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty())
-        .map(|(i, l)| {
-            let f: Vec<f64> = l
-                .split(',')
-                .map(|v| v.trim().parse::<f64>())
-                .collect::<Result<_, _>>()
-                .with_context(|| format!("line {}", i + 2))?;
-            anyhow::ensure!(f.len() == 4, "line {}: expected 4 fields", i + 2);
-            Ok(StampedPose {
-                t_s: f[0],
-                pose: Pose2::new(f[1], f[2], f[3]),
-            })
-        })
-        .collect()
+    Ok(trajectory_csv::parse(text)?
+        .into_iter()
+        .map(StampedPose::wrapped)
+        .collect())
 }

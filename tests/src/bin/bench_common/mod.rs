@@ -187,11 +187,9 @@ pub async fn wait_settled(
 pub fn truth_rows(path: &Path) -> Result<u64> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    Ok(text
-        .lines()
-        .skip(1)
-        .filter(|l| !l.trim().is_empty())
-        .count() as u64)
+    let rows = sketchslam_types::trajectory_csv::parse(&text)
+        .with_context(|| format!("parsing {}", path.display()))?;
+    Ok(rows.len() as u64)
 }
 
 /// Samples the simulator discarded for a full subscriber buffer (its `done` log line).
