@@ -18,6 +18,7 @@ use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
 use sketchslam_simulator::simulation::Simulation;
 use sketchslam_simulator::world::World;
+use sketchslam_slam::method::api_method;
 use sketchslam_types::Pose2;
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -29,14 +30,6 @@ const ROBOT_ID: &str = "eval";
 const SERVICE_START_TIMEOUT: Duration = Duration::from_secs(30);
 /// How long the session may go without processing a scan once the simulator is done.
 const DRAIN_IDLE_TIMEOUT: Duration = Duration::from_secs(20);
-
-fn api_method(method: Method) -> MappingMethod {
-    match method {
-        Method::Odometry => MappingMethod::Odometry,
-        Method::Icp => MappingMethod::Icp,
-        Method::Sketch => MappingMethod::Sketch,
-    }
-}
 
 /// Maps `scenario` with `method` through the real processes and scores the result; with
 /// `max_scans`, only the run's first scans.

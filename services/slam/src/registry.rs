@@ -20,11 +20,12 @@ use tokio::sync::broadcast;
 
 use super::RuntimeError;
 use super::config::RegistryConfig;
+use super::method::engine_method;
 use super::metrics::Histogram;
 use super::session::{Session, lock, now_unix_ms};
 use super::storage::{SessionMeta, SketchMeta, Storage};
 use sketchslam_engine::EngineError;
-use sketchslam_engine::mapper::{Mapper, Method, SketchPrior};
+use sketchslam_engine::mapper::{Mapper, SketchPrior};
 use sketchslam_engine::sketch::overlay::{encode_png, render_overlay};
 use sketchslam_engine::sketch::{Sketch, SketchPose};
 use sketchslam_types::trajectory_csv;
@@ -103,14 +104,6 @@ fn image_error(e: EngineError) -> ApiError {
             format!("the body is not a PNG or JPEG image that decodes: {m}"),
         ),
         other => ApiError::invalid("invalid_image", other.to_string()),
-    }
-}
-
-fn method_of(m: MappingMethod) -> Method {
-    match m {
-        MappingMethod::Sketch => Method::Sketch,
-        MappingMethod::Icp => Method::Icp,
-        MappingMethod::Odometry => Method::Odometry,
     }
 }
 
@@ -222,7 +215,7 @@ impl Registry {
     }
 
     fn start_session(&self, request: &CreateSessionRequest, id: &str) -> Result<Session, ApiError> {
-        let method = method_of(request.method);
+        let method = engine_method(request.method);
         let prior = match request.method {
             MappingMethod::Sketch => {
                 let sketch_id = request.sketch_id.as_deref().unwrap_or_default();

@@ -8,7 +8,9 @@ use anyhow::{Context, Result, bail};
 use sketchslam_api::{
     CreateSessionRequest, MappingMethod, SessionInfo, SketchStart, SketchslamClient,
 };
+use sketchslam_engine::mapper::Method;
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
+use sketchslam_slam::method::api_method;
 use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario, free_port};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -71,14 +73,11 @@ pub fn paper_env1() -> Result<(Scenario, SketchConfig)> {
     Ok((scenario, sketch))
 }
 
-/// Parses `sketch`, `icp` or `odometry`.
+/// Parses `sketch`, `icp` or `odometry` (the engine's names, through the runtime's one
+/// mapping to the API's methods).
 pub fn parse_method(s: &str) -> Result<MappingMethod> {
-    Ok(match s {
-        "sketch" => MappingMethod::Sketch,
-        "icp" => MappingMethod::Icp,
-        "odometry" => MappingMethod::Odometry,
-        other => bail!("unknown method {other:?} (sketch, icp, odometry)"),
-    })
+    let method: Method = s.parse()?;
+    Ok(api_method(method))
 }
 
 /// Starts a session for `robot`; `sketch_id` is the uploaded sketch A for the sketch method.
