@@ -17,11 +17,10 @@
 use crate::metrics::{self, StampedPose};
 use crate::real_process::{StreamSource, map_through_processes};
 use crate::relations::{Relation, score_relations};
-use crate::run::{RunResult, occupied_points, read_trajectory_csv, sketch_prior};
+use crate::run::{RunResult, read_map_occupied_points, read_trajectory_csv, sketch_prior};
 use anyhow::{Context, Result};
 use image::{Rgb, RgbImage};
 use sketchslam_engine::mapper::{Mapper, MapperConfig, Method, trajectory_csv};
-use sketchslam_engine::mapping::ros_export::{parse_map_yaml, parse_pgm};
 use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::dataset::Dataset;
 use sketchslam_simulator::replay::Replay;
@@ -162,9 +161,7 @@ pub fn score_dataset_artifacts(
     truth: &[StampedPose],
     relations: &[Relation],
 ) -> Result<RunResult> {
-    let yaml = parse_map_yaml(&std::fs::read_to_string(out_dir.join("map.yaml"))?)?;
-    let (width, height, pixels) = parse_pgm(&std::fs::read(out_dir.join("map.pgm"))?)?;
-    let occupied = occupied_points(width, height, &pixels, yaml.resolution_m, &yaml.origin);
+    let occupied = read_map_occupied_points(out_dir)?;
     let estimate = read_trajectory_csv(&out_dir.join("trajectory.csv"))?;
     let traj = metrics::score_trajectory(&estimate, truth)
         .context("the trajectory does not overlap the reference")?;
@@ -285,9 +282,7 @@ fn draw_sketch_overlay(
     final_map_pose: Pose2,
     sketch_pose: &SketchPose,
 ) -> Result<()> {
-    let yaml = parse_map_yaml(&std::fs::read_to_string(out_dir.join("map.yaml"))?)?;
-    let (width, height, pixels) = parse_pgm(&std::fs::read(out_dir.join("map.pgm"))?)?;
-    let occupied = occupied_points(width, height, &pixels, yaml.resolution_m, &yaml.origin);
+    let occupied = read_map_occupied_points(out_dir)?;
     let sketch = image::open(&cfg.image)
         .with_context(|| format!("reading {}", cfg.image.display()))?
         .to_luma8();

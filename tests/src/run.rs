@@ -10,13 +10,15 @@ use crate::overlay;
 use anyhow::{Context, Result};
 use serde::Serialize;
 use sketchslam_engine::mapper::{Mapper, MapperConfig, Method, SketchPrior, trajectory_csv};
-use sketchslam_engine::mapping::ros_export::{parse_map_yaml, parse_pgm};
+use sketchslam_engine::mapping::ros_export::{
+    RowOrder, occupied_points_in_order, parse_map_yaml, parse_pgm,
+};
 use sketchslam_engine::sketch::{Sketch, SketchPose};
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
 use sketchslam_simulator::simulation::Simulation;
 use sketchslam_simulator::world::World;
 use sketchslam_types::trajectory_csv;
-use sketchslam_types::{Point2, Pose2, SensorEvent};
+use sketchslam_types::{Point2, SensorEvent};
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -240,9 +242,7 @@ pub fn seen_wall_pixels(
 /// Reads a run's `map.pgm`, `map.yaml` and `trajectory.csv`, scores them against the
 /// truth and draws `overlay.png`. Scenario/method fields of the result are left empty.
 pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
-    let yaml = parse_map_yaml(&std::fs::read_to_string(out_dir.join("map.yaml"))?)?;
-    let (width, height, pixels) = parse_pgm(&std::fs::read(out_dir.join("map.pgm"))?)?;
-    let occupied = occupied_points(width, height, &pixels, yaml.resolution_m, &yaml.origin);
+    let occupied = read_map_occupied_points(out_dir)?;
     let estimate = read_trajectory_csv(&out_dir.join("trajectory.csv"))?;
     let traj = metrics::score_trajectory(&estimate, &truth.poses)
         .context("the trajectory does not overlap the truth")?;
@@ -279,28 +279,26 @@ pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
     })
 }
 
-/// Map-frame centres of the occupied pixels (value 0) of a map_server PGM, whose first row
-/// is the top of the map and whose bottom-left corner is at `origin`.
-pub fn occupied_points(
-    width: usize,
-    height: usize,
-    pixels: &[u8],
-    resolution_m: f64,
-    origin: &Pose2,
-) -> Vec<Point2> {
-    let mut out = Vec::new();
-    for row in 0..height {
-        for col in 0..width {
-            if pixels[row * width + col] == 0 {
-                let local = Point2::new(
-                    (col as f64 + 0.5) * resolution_m,
-                    ((height - 1 - row) as f64 + 0.5) * resolution_m,
-                );
-                out.push(origin.transform_point(&local));
-            }
-        }
-    }
-    out
+/// Map-frame centres of the occupied pixels of a saved map (`map.yaml` text and
+/// `map.pgm` bytes), by the engine's map_server rule
+/// ([`sketchslam_engine::mapping::ros_export::pixel_is_occupied`]). Listed top row first
+/// (the image's order): the map error sums over them in this order, as it always has.
+pub fn map_occupied_points(map_yaml: &str, map_pgm: &[u8]) -> Result<Vec<Point2>> {
+    let yaml = parse_map_yaml(map_yaml)?;
+    let (width, height, pixels) = parse_pgm(map_pgm)?;
+    Ok(occupied_points_in_order(
+        &yaml,
+        width,
+        height,
+        &pixels,
+        RowOrder::TopFirst,
+    ))
+}
+
+/// [`map_occupied_points`] of the `map.yaml` and `map.pgm` in `out_dir`.
+pub fn read_map_occupied_points(out_dir: &Path) -> Result<Vec<Point2>> {
+    let yaml = std::fs::read_to_string(out_dir.join("map.yaml"))?;
+    map_occupied_points(&yaml, &std::fs::read(out_dir.join("map.pgm"))?)
 }
 
 /// Reads a `t,x,y,theta` CSV (trajectory or truth), headings wrapped to (−π, π].
