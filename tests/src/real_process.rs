@@ -10,6 +10,7 @@
 use crate::metrics::WallGrid;
 use crate::processes::{ChildGuard, binary, free_port, unique_prefix};
 use crate::run::{RunResult, Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
+use crate::run_loop::RunFigures;
 use anyhow::{Context, Result, bail};
 use sketchslam_api::client::SketchslamClient;
 use sketchslam_api::types::{CreateSessionRequest, MappingMethod, SketchStart};
@@ -80,14 +81,9 @@ pub struct StreamSource<'a> {
 
 /// What the service reported once a run through the processes was done.
 pub struct ProcessRun {
-    /// Scans the session processed.
-    pub scans: u64,
-    /// Wall seconds from the simulator's start to the last scan processed.
-    pub wall_s: f64,
-    /// Recoveries of MCL on the sketch.
-    pub recoveries: u32,
-    /// Loops the session closed.
-    pub loop_closures: u32,
+    /// Scans processed, wall seconds from the simulator's start to the last scan
+    /// processed, recoveries and loops closed.
+    pub figures: RunFigures,
     /// The session's last pose: map frame, and on the drawing (`sketch` sessions).
     pub final_pose: (Pose2, Option<SketchPose>),
 }
@@ -101,14 +97,7 @@ impl ProcessRun {
         method: Method,
         sketch: Option<&SketchConfig>,
     ) {
-        result.scenario = name.to_string();
-        result.method = method.to_string();
-        result.sketch = sketch.map(|s| s.name.clone());
-        result.scans = self.scans;
-        result.wall_s = self.wall_s;
-        result.scans_per_s = self.scans as f64 / self.wall_s.max(1e-9);
-        result.recoveries = self.recoveries;
-        result.loop_closures = self.loop_closures;
+        self.figures.fill(result, name, method, sketch);
     }
 }
 
@@ -256,10 +245,12 @@ pub fn map_through_processes(
     )?;
     service.terminate(Duration::from_secs(10));
     Ok(ProcessRun {
-        scans: stopped.scans_processed,
-        wall_s,
-        recoveries: stopped.recoveries as u32,
-        loop_closures: stopped.loop_closures as u32,
+        figures: RunFigures {
+            scans: stopped.scans_processed,
+            wall_s,
+            recoveries: stopped.recoveries as u32,
+            loop_closures: stopped.loop_closures as u32,
+        },
         final_pose,
     })
 }

@@ -7,9 +7,10 @@
 
 use crate::metrics::{self, StampedPose, WallGrid};
 use crate::overlay;
+use crate::run_loop::map_in_process;
 use anyhow::{Context, Result};
 use serde::Serialize;
-use sketchslam_engine::mapper::{Mapper, MapperConfig, Method, SketchPrior, trajectory_csv};
+use sketchslam_engine::mapper::{Method, SketchPrior};
 use sketchslam_engine::mapping::ros_export::{
     RowOrder, occupied_points_in_order, parse_map_yaml, parse_pgm,
 };
@@ -17,12 +18,11 @@ use sketchslam_engine::sketch::{Sketch, SketchPose};
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
 use sketchslam_simulator::simulation::Simulation;
 use sketchslam_simulator::world::World;
+use sketchslam_types::Point2;
 use sketchslam_types::trajectory_csv;
-use sketchslam_types::{Point2, SensorEvent};
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::Instant;
 
 /// Every n-th beam of a truth scan is cast to find the wall pixels the sensor saw.
 const SEEN_WALL_BEAM_STRIDE: usize = 2;
@@ -127,88 +127,34 @@ pub fn run_in_process(
     sketch: Option<&SketchConfig>,
     out_dir: &Path,
     max_scans: Option<u64>,
-    mut progress: impl FnMut(u64, u64),
+    progress: impl FnMut(u64, u64),
 ) -> Result<RunResult> {
-    let prior = match (method, sketch) {
-        (Method::Sketch, Some(cfg)) => Some(sketch_prior(cfg)?),
-        (Method::Sketch, None) => anyhow::bail!("the sketch method needs a sketch"),
-        _ => None,
-    };
-    let config = MapperConfig {
-        seed: scenario.seed,
-        ..MapperConfig::default()
-    };
-    let mut mapper = Mapper::new(method, prior, config)?;
     let world = World::load(&scenario.world.image, scenario.world.resolution_m)?;
     let sim = Simulation::new(scenario)?;
-    let total = max_scans.map_or(sim.scan_count(), |m| m.min(sim.scan_count()));
-    let mut truth_poses = Vec::new();
-    let mut mapping_s = 0.0;
-    let mut scan_ms: Vec<f64> = Vec::new();
-    for step in sim {
-        if let SensorEvent::Scan(scan) = &step.event {
-            truth_poses.push(StampedPose {
-                t_s: scan.header.stamp_ns as f64 * 1e-9,
-                pose: step.truth,
-            });
-        }
-        let started = Instant::now();
-        mapper.on_event(&step.event);
-        let spent_s = started.elapsed().as_secs_f64();
-        mapping_s += spent_s;
-        if matches!(step.event, SensorEvent::Scan(_)) {
-            scan_ms.push(spent_s * 1e3);
-            progress(truth_poses.len() as u64, total);
-            // Stop right after the last scan, as the simulator's --max-scans does.
-            if truth_poses.len() as u64 >= total {
-                break;
-            }
-        }
-    }
+    let scans = sim.scan_count();
+    let run = map_in_process(
+        sim,
+        scans,
+        method,
+        sketch,
+        scenario.seed,
+        out_dir,
+        max_scans,
+        progress,
+    )?;
     let walls = WallGrid::from_image(
         &image::open(&scenario.world.image)?.to_luma8(),
         scenario.world.resolution_m,
     );
-    let seen_walls = seen_wall_pixels(scenario, &world, &walls, &truth_poses);
-    std::fs::create_dir_all(out_dir)?;
-    std::fs::write(out_dir.join("map.pgm"), mapper.grid().to_pgm())?;
-    std::fs::write(out_dir.join("map.yaml"), mapper.grid().to_yaml("map.pgm"))?;
-    std::fs::write(
-        out_dir.join("trajectory.csv"),
-        trajectory_csv(mapper.trajectory()),
-    )?;
-    sketchslam_simulator::truth::write_truth_csv(&out_dir.join("truth.csv"), &truth_poses)?;
-    let health = mapper.health();
+    let seen_walls = seen_wall_pixels(scenario, &world, &walls, &run.truth);
     let truth = Truth {
-        poses: truth_poses,
+        poses: run.truth.clone(),
         seen_walls,
         walls,
     };
     let mut result = score_artifacts(out_dir, &truth)?;
-    result.scenario = scenario.name.clone();
-    result.method = method.to_string();
-    result.sketch = sketch.map(|s| s.name.clone());
-    result.scans = health.scans_processed;
-    result.wall_s = mapping_s;
-    result.scans_per_s = health.scans_processed as f64 / mapping_s.max(1e-9);
-    scan_ms.sort_by(f64::total_cmp);
-    if !scan_ms.is_empty() {
-        result.scan_ms_mean = Some(scan_ms.iter().sum::<f64>() / scan_ms.len() as f64);
-        result.scan_ms_p99 = Some(scan_ms[(scan_ms.len() * 99 / 100).min(scan_ms.len() - 1)]);
-    }
-    let sim_s = truth_poses_span_s(&truth);
-    result.realtime_factor = Some(sim_s / mapping_s.max(1e-9));
-    result.recoveries = health.recoveries;
-    result.loop_closures = health.loop_closures;
+    run.fill(&mut result, &scenario.name, method, sketch);
     Ok(result)
-}
-
-/// Seconds between the first and the last truth pose.
-fn truth_poses_span_s(truth: &Truth) -> f64 {
-    match (truth.poses.first(), truth.poses.last()) {
-        (Some(a), Some(b)) => b.t_s - a.t_s,
-        _ => 0.0,
-    }
 }
 
 /// Wall pixels the noise-free sensor saw from the true poses.
