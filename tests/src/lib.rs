@@ -9,3 +9,4 @@ pub mod real_process;
 pub mod relations;
 pub mod run;
 pub mod run_loop;
+pub mod service_process;

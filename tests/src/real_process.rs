@@ -8,11 +8,11 @@
 //! as the in-process mode does.
 
 use crate::metrics::WallGrid;
-use crate::processes::{ChildGuard, binary, free_port, unique_prefix};
+use crate::processes::{ChildGuard, binary, unique_prefix};
 use crate::run::{RunResult, Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
 use crate::run_loop::RunFigures;
+use crate::service_process::{ServiceOptions, ServiceProcess};
 use anyhow::{Context, Result, bail};
-use sketchslam_api::client::SketchslamClient;
 use sketchslam_api::types::{CreateSessionRequest, MappingMethod, SketchStart};
 use sketchslam_engine::mapper::Method;
 use sketchslam_engine::sketch::SketchPose;
@@ -27,8 +27,6 @@ use std::time::{Duration, Instant};
 
 /// The robot id the simulator publishes under in an evaluation run.
 const ROBOT_ID: &str = "eval";
-/// How long the service may take to answer `/healthz` after start.
-const SERVICE_START_TIMEOUT: Duration = Duration::from_secs(30);
 /// How long the session may go without processing a scan once the simulator is done.
 const DRAIN_IDLE_TIMEOUT: Duration = Duration::from_secs(20);
 
@@ -112,30 +110,17 @@ pub fn map_through_processes(
     max_scans: Option<u64>,
     mut progress: impl FnMut(u64, u64),
 ) -> Result<ProcessRun> {
-    let service_bin = binary("sketchslam-slam", "slam-service")?;
     let simulator_bin = binary("sketchslam-simulator", "simulator")?;
     std::fs::create_dir_all(out_dir)?;
     let data_dir = out_dir.join("service-data");
     let _ = std::fs::remove_dir_all(&data_dir);
     let prefix = unique_prefix("eval");
-    let port = free_port()?;
-    let log = std::fs::File::create(out_dir.join("service.log"))?;
-    let mut service = ChildGuard::spawn(
-        "slam-service",
-        Command::new(&service_bin)
-            .args(["--listen", &format!("127.0.0.1:{port}")])
-            .arg("--data-dir")
-            .arg(&data_dir)
-            .args(["--ipc-prefix", &prefix])
-            .env_remove("SKETCHSLAM_TOKEN")
-            .stdout(Stdio::null())
-            .stderr(log),
-    )?;
+    let options = ServiceOptions::new(&data_dir, &prefix, out_dir.join("service.log"));
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()?;
-    let client = SketchslamClient::new(format!("http://127.0.0.1:{port}"));
-    runtime.block_on(wait_healthy(&client, &mut service))?;
+    let mut service = runtime.block_on(ServiceProcess::start(&options))?;
+    let client = service.client.clone();
 
     let request = match (method, sketch) {
         (Method::Sketch, Some(cfg)) => {
@@ -243,7 +228,7 @@ pub fn map_through_processes(
         out_dir.join("trajectory.csv"),
         runtime.block_on(client.trajectory_csv(&session.id))?,
     )?;
-    service.terminate(Duration::from_secs(10));
+    service.guard.terminate(Duration::from_secs(10));
     Ok(ProcessRun {
         figures: RunFigures {
             scans: stopped.scans_processed,
@@ -253,20 +238,4 @@ pub fn map_through_processes(
         },
         final_pose,
     })
-}
-
-async fn wait_healthy(client: &SketchslamClient, service: &mut ChildGuard) -> Result<()> {
-    let deadline = Instant::now() + SERVICE_START_TIMEOUT;
-    loop {
-        if client.health().await.is_ok() {
-            return Ok(());
-        }
-        if let Some(status) = service.child_mut().try_wait()? {
-            bail!("slam-service exited at start: {status} (see service.log)");
-        }
-        if Instant::now() > deadline {
-            bail!("slam-service did not answer /healthz within {SERVICE_START_TIMEOUT:?}");
-        }
-        tokio::time::sleep(Duration::from_millis(100)).await;
-    }
 }
