@@ -162,7 +162,8 @@ mod tests {
         // Parsed and written again: the same bytes, even for a heading rounded past π.
         let text = "t,x,y,theta\n0.000000000,1.000000,2.000000,3.141593\n";
         let rows = parse(text).unwrap();
-        assert_eq!(rows[0].pose.heading_rad, 3.141593);
+        let written: f64 = "3.141593".parse().unwrap();
+        assert_eq!(rows[0].pose.heading_rad, written);
         assert_eq!(write(&rows, NumberFormat::Fixed), text);
         assert!(rows[0].wrapped().pose.heading_rad < 0.0);
     }
