@@ -8,6 +8,8 @@
 //! `localizationScore`) so fleet managers can pass it through unchanged.
 
 use serde::{Deserialize, Serialize};
+use sketchslam_types::Pose2;
+use sketchslam_types::trajectory_csv::{self, NumberFormat, StampedPose};
 use utoipa::ToSchema;
 
 use crate::error::ApiError;
@@ -352,17 +354,35 @@ pub struct TrajectoryResponse {
 }
 
 impl TrajectoryResponse {
-    /// The trajectory as `trajectory.csv`: header `t,x,y,theta`.
+    /// The trajectory as `trajectory.csv` ([`sketchslam_types::trajectory_csv`], fixed
+    /// decimals), the values as they are (headings not re-wrapped).
     pub fn to_csv(&self) -> String {
-        let mut out = String::with_capacity(32 + self.points.len() * 48);
-        out.push_str("t,x,y,theta\n");
-        for p in &self.points {
-            out.push_str(&format!(
-                "{:.9},{:.6},{:.6},{:.6}\n",
-                p.t, p.x, p.y, p.theta
-            ));
+        let rows: Vec<StampedPose> = self.points.iter().map(|p| p.stamped_pose()).collect();
+        trajectory_csv::write(&rows, NumberFormat::Fixed)
+    }
+}
+
+impl TrajectoryPointInfo {
+    /// The point as a CSV row, values unchanged.
+    pub fn stamped_pose(&self) -> StampedPose {
+        StampedPose {
+            t_s: self.t,
+            pose: Pose2 {
+                x: self.x,
+                y: self.y,
+                heading_rad: self.theta,
+            },
         }
-        out
+    }
+
+    /// A CSV row as a point, values unchanged.
+    pub fn from_stamped_pose(row: &StampedPose) -> TrajectoryPointInfo {
+        TrajectoryPointInfo {
+            t: row.t_s,
+            x: row.pose.x,
+            y: row.pose.y,
+            theta: row.pose.heading_rad,
+        }
     }
 }
 

@@ -23,8 +23,9 @@
 //! [[sketch]]                             # as in scenario.toml
 //! ```
 
-use crate::error::{SimError, line_of_offset};
+use crate::error::SimError;
 use crate::scenario::{OdometryConfig, SketchConfig, SketchTable};
+use crate::toml_file::{self, Ctx, Table};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -72,40 +73,24 @@ impl Dataset {
             .or_else(|_| std::path::absolute(dir))
             .unwrap_or_else(|_| dir.to_path_buf());
         let file = dir.join(DATASET_FILE);
-        let source = std::fs::read_to_string(&file).map_err(|source| SimError::Io {
-            file: file.clone(),
-            action: "cannot read",
-            source,
-        })?;
+        let source = toml_file::read(&file)?;
         Dataset::from_toml(&source, &file)
     }
 
     /// Parses and checks dataset text as if it were the file `file`; relative paths are
     /// taken from `file`'s folder.
     pub fn from_toml(source: &str, file: &Path) -> Result<Dataset, SimError> {
-        let raw: DatasetFile = toml::from_str(source).map_err(|e| SimError::Parse {
-            file: file.to_path_buf(),
-            line: e.span().map(|s| line_of_offset(source, s.start)),
-            key: None,
-            message: e.message().trim().to_string(),
-        })?;
+        let ctx = Ctx { file, source };
+        let raw: DatasetFile = ctx.deserialize()?;
         let dir = file.parent().unwrap_or(Path::new(".")).to_path_buf();
-        let invalid = |table: Option<&str>, key: &str, message: String| SimError::Invalid {
-            file: file.to_path_buf(),
-            line: key_line(source, table, key),
-            key: match table {
-                Some(t) => format!("{t}.{key}"),
-                None => key.to_string(),
-            },
-            message,
-        };
+        let invalid = |table: Table, key: &str, message: String| ctx.invalid(table, key, message);
         if raw.name.trim().is_empty() {
-            return Err(invalid(None, "name", "must not be empty".into()));
+            return Err(invalid(Table::Root, "name", "must not be empty".into()));
         }
         let log = dir.join(&raw.log);
         if !log.is_file() {
             return Err(invalid(
-                None,
+                Table::Root,
                 "log",
                 format!("{} is not a readable file", log.display()),
             ));
@@ -115,7 +100,7 @@ impl Dataset {
                 let path = dir.join(r);
                 if !path.is_file() {
                     return Err(invalid(
-                        None,
+                        Table::Root,
                         "relations",
                         format!("{} is not a readable file", path.display()),
                     ));
@@ -126,7 +111,7 @@ impl Dataset {
         };
         if !raw.relations_time_offset.is_finite() {
             return Err(invalid(
-                None,
+                Table::Root,
                 "relations_time_offset",
                 format!(
                     "must be a finite number of seconds, got {}",
@@ -137,14 +122,14 @@ impl Dataset {
         let fov_rad = raw.lidar.fov_deg.to_radians();
         if !(fov_rad.is_finite() && fov_rad > 0.0 && fov_rad <= std::f64::consts::TAU + 1e-12) {
             return Err(invalid(
-                Some("lidar"),
+                Table::Named("lidar"),
                 "fov_deg",
                 format!("must be in (0, 360] degrees, got {}", raw.lidar.fov_deg),
             ));
         }
         if !(raw.lidar.max_range.is_finite() && raw.lidar.max_range > crate::lidar::RANGE_MIN_M) {
             return Err(invalid(
-                Some("lidar"),
+                Table::Named("lidar"),
                 "max_range",
                 format!(
                     "must be a finite range above {} m, got {}",
@@ -162,18 +147,17 @@ impl Dataset {
             rot_bias: o.rot_bias,
         };
         if let Err(p) = odometry.validate_noise() {
-            return Err(invalid(Some("odometry"), p.key, p.message));
+            return Err(invalid(Table::Named("odometry"), p.key, p.message));
         }
         let mut sketches: Vec<SketchConfig> = Vec::with_capacity(raw.sketch.len());
         for (index, table) in raw.sketch.iter().enumerate() {
             let sketch = table.resolve(file, source, index)?;
             if sketches.iter().any(|s| s.name == sketch.name) {
-                return Err(SimError::Invalid {
-                    file: file.to_path_buf(),
-                    line: None,
-                    key: format!("sketch[{index}].name"),
-                    message: format!("sketch name {:?} is used twice", sketch.name),
-                });
+                return Err(invalid(
+                    Table::Array("sketch", index),
+                    "name",
+                    format!("sketch name {:?} is used twice", sketch.name),
+                ));
             }
             sketches.push(sketch);
         }
@@ -197,25 +181,6 @@ impl Dataset {
     pub fn sketch(&self, name: &str) -> Option<&SketchConfig> {
         self.sketches.iter().find(|s| s.name == name)
     }
-}
-
-/// The 1-based line where `key` is set in `[table]` (None: the top level), if found.
-fn key_line(source: &str, table: Option<&str>, key: &str) -> Option<usize> {
-    let mut current: Option<&str> = None;
-    for (n, line) in source.lines().enumerate() {
-        let t = line.trim();
-        if let Some(rest) = t.strip_prefix('[') {
-            current = Some(rest.trim_matches(|c| c == '[' || c == ']').trim());
-            continue;
-        }
-        if current == table
-            && let Some((k, _)) = t.split_once('=')
-            && k.trim() == key
-        {
-            return Some(n + 1);
-        }
-    }
-    None
 }
 
 // ---------------------------------------------------------------------------------------

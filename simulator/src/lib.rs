@@ -1,7 +1,8 @@
 //! The sensor simulator: it owns the truth (world, robot motion, sensor and odometry
 //! models) and publishes only what a real robot driver would, over iceoryx2.
 //!
-//! Pipeline: [`scenario`] loads a scenario folder; [`world`] holds the truth grid and casts
+//! Pipeline: [`scenario`] loads a scenario folder (its TOML read by `toml_file`, shared
+//! with datasets); [`world`] holds the truth grid and casts
 //! rays; [`motion`] is the true trajectory; [`odometry`] and [`lidar`] are the sensor
 //! models; [`simulation`] streams their messages in stamp order; [`truth`] writes the true
 //! poses; [`render`] draws a scenario. Real data: [`dataset`] loads a dataset folder,
@@ -18,6 +19,7 @@ pub mod render;
 pub mod replay;
 pub mod scenario;
 pub mod simulation;
+mod toml_file;
 pub mod truth;
 pub mod world;
 

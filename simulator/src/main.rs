@@ -18,8 +18,8 @@ use sketchslam_simulator::dataset::Dataset;
 use sketchslam_simulator::publish::{Pace, PublishOptions, publish_events};
 use sketchslam_simulator::replay::Replay;
 use sketchslam_simulator::{Scenario, SimStep, Simulation};
-use sketchslam_types::Pose2;
 use sketchslam_types::SensorEvent;
+use sketchslam_types::StampedPose;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -158,13 +158,16 @@ fn run(args: RunArgs, replay: bool) -> Result<()> {
         "publishing"
     );
 
-    let mut truth: Vec<(f64, Pose2)> = Vec::new();
+    let mut truth: Vec<StampedPose> = Vec::new();
     let keep_truth = args.truth_out.is_some();
     let events = steps
         .inspect(|step| {
             // truth.csv holds one row per scan (DESIGN.md).
             if keep_truth && matches!(step.event, SensorEvent::Scan(_)) {
-                truth.push((step.t_s(), step.truth));
+                truth.push(StampedPose {
+                    t_s: step.t_s(),
+                    pose: step.truth,
+                });
             }
         })
         .map(|step| step.event);

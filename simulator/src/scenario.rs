@@ -11,7 +11,8 @@
 //! values with their own `validate`, so a log replay (`dataset.toml`) can reuse them and the
 //! same noise model.
 
-use crate::error::{SimError, line_of_offset};
+use crate::error::SimError;
+use crate::toml_file::{self, Ctx, Table};
 use crate::world::{self, World};
 use serde::Deserialize;
 use sketchslam_types::{Point2, Pose2, wrap_angle};
@@ -219,11 +220,7 @@ impl Scenario {
             .or_else(|_| std::path::absolute(dir))
             .unwrap_or_else(|_| dir.to_path_buf());
         let file = dir.join(SCENARIO_FILE);
-        let source = std::fs::read_to_string(&file).map_err(|source| SimError::Io {
-            file: file.clone(),
-            action: "cannot read",
-            source,
-        })?;
+        let source = toml_file::read(&file)?;
         Scenario::from_toml(&source, &file)
     }
 
@@ -231,7 +228,7 @@ impl Scenario {
     /// are taken from `file`'s folder.
     pub fn from_toml(source: &str, file: &Path) -> Result<Scenario, SimError> {
         let ctx = Ctx { file, source };
-        let raw: ScenarioFile = toml::from_str(source).map_err(|e| ctx.parse_error(&e))?;
+        let raw: ScenarioFile = ctx.deserialize()?;
         let dir = file.parent().unwrap_or(Path::new(".")).to_path_buf();
         raw.check(&ctx, dir)
     }
@@ -527,194 +524,5 @@ impl RobotTable {
             speed_m_s: self.speed,
             turn_rate_rad_s: self.turn_rate.to_radians(),
         })
-    }
-}
-
-// ---------------------------------------------------------------------------------------
-// Locating keys in the text, for messages.
-
-/// Where a key lives: the top level, a `[table]`, or the n-th `[[table]]`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Table {
-    Root,
-    Named(&'static str),
-    Array(&'static str, usize),
-}
-
-impl Table {
-    /// The dotted key of `key` in this table.
-    fn key(&self, key: &str) -> String {
-        match self {
-            Table::Root => key.to_string(),
-            Table::Named(t) => format!("{t}.{key}"),
-            Table::Array(t, i) => format!("{t}[{i}].{key}"),
-        }
-    }
-}
-
-/// The file being read, for building errors.
-struct Ctx<'a> {
-    file: &'a Path,
-    source: &'a str,
-}
-
-/// What a line of TOML is, for the key locator.
-enum LineKind<'s> {
-    Header { name: &'s str, array: bool },
-    Key(&'s str),
-    Other,
-}
-
-fn classify(line: &str) -> LineKind<'_> {
-    let t = line.trim();
-    if let Some(rest) = t.strip_prefix("[[") {
-        let name = rest.split("]]").next().unwrap_or("").trim();
-        return LineKind::Header { name, array: true };
-    }
-    if let Some(rest) = t.strip_prefix('[') {
-        let name = rest.split(']').next().unwrap_or("").trim();
-        return LineKind::Header { name, array: false };
-    }
-    if t.starts_with('#') {
-        return LineKind::Other;
-    }
-    match t.split_once('=') {
-        Some((k, _)) => LineKind::Key(k.trim().trim_matches('"').trim_matches('\'')),
-        None => LineKind::Other,
-    }
-}
-
-impl Ctx<'_> {
-    fn invalid(&self, table: Table, key: &str, message: String) -> SimError {
-        SimError::Invalid {
-            file: self.file.to_path_buf(),
-            line: self.key_line(table, key),
-            key: table.key(key),
-            message,
-        }
-    }
-
-    /// The 1-based line where `key` is set inside `table`, if it can be found.
-    fn key_line(&self, table: Table, key: &str) -> Option<usize> {
-        let mut current = Table::Root;
-        let mut array_counts: Vec<(&str, usize)> = Vec::new();
-        for (n, line) in self.source.lines().enumerate() {
-            match classify(line) {
-                LineKind::Header { name, array } => {
-                    current = if array {
-                        let count = match array_counts.iter_mut().find(|(t, _)| *t == name) {
-                            Some((_, c)) => {
-                                *c += 1;
-                                *c
-                            }
-                            None => {
-                                array_counts.push((name, 0));
-                                0
-                            }
-                        };
-                        match table {
-                            Table::Array(t, _) if t == name => Table::Array(t, count),
-                            _ => Table::Named(""),
-                        }
-                    } else {
-                        match table {
-                            Table::Named(t) if t == name => table,
-                            _ => Table::Named(""),
-                        }
-                    };
-                }
-                LineKind::Key(k) if current == table && k == key => return Some(n + 1),
-                _ => {}
-            }
-        }
-        None
-    }
-
-    /// The dotted key set (or table opened) at 1-based `line`, if any.
-    fn key_at_line(&self, line: usize) -> Option<String> {
-        let mut table: Option<String> = None;
-        let mut array_counts: Vec<(String, usize)> = Vec::new();
-        for (n, text) in self.source.lines().enumerate().take(line) {
-            let here = n + 1 == line;
-            match classify(text) {
-                LineKind::Header { name, array } => {
-                    let label = if array {
-                        let count = match array_counts.iter_mut().find(|(t, _)| t == name) {
-                            Some((_, c)) => {
-                                *c += 1;
-                                *c
-                            }
-                            None => {
-                                array_counts.push((name.to_string(), 0));
-                                0
-                            }
-                        };
-                        format!("{name}[{count}]")
-                    } else {
-                        name.to_string()
-                    };
-                    if here {
-                        return Some(label);
-                    }
-                    table = Some(label);
-                }
-                LineKind::Key(k) if here => {
-                    return Some(match &table {
-                        Some(t) => format!("{t}.{k}"),
-                        None => k.to_string(),
-                    });
-                }
-                _ => {}
-            }
-        }
-        table
-    }
-
-    fn parse_error(&self, e: &toml::de::Error) -> SimError {
-        let line = e.span().map(|span| line_of_offset(self.source, span.start));
-        // A span at offset 0 covers the whole document (e.g. a missing table): no key.
-        let key = match e.span() {
-            Some(span) if span.start > 0 => line.and_then(|l| self.key_at_line(l)),
-            _ => None,
-        };
-        // "missing field `x`" points at the table that lacks it: name the full key.
-        let missing = e
-            .message()
-            .strip_prefix("missing field `")
-            .and_then(|rest| rest.split('`').next());
-        let key = match (key, missing) {
-            (Some(table), Some(field)) => Some(format!("{table}.{field}")),
-            (None, Some(field)) => Some(field.to_string()),
-            (key, None) => key,
-        };
-        SimError::Parse {
-            file: self.file.to_path_buf(),
-            line,
-            key,
-            message: e.message().trim().to_string(),
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    const TEXT: &str = "name = \"x\"\n[world]\nimage = \"w.png\"\n[[sketch]]\nname = \"A\"\n[[sketch]]\nname = \"B\"\nimage = \"b.png\"\n";
-
-    #[test]
-    fn finds_key_lines() {
-        let ctx = Ctx {
-            file: Path::new("s.toml"),
-            source: TEXT,
-        };
-        assert_eq!(ctx.key_line(Table::Root, "name"), Some(1));
-        assert_eq!(ctx.key_line(Table::Named("world"), "image"), Some(3));
-        assert_eq!(ctx.key_line(Table::Array("sketch", 1), "name"), Some(7));
-        assert_eq!(ctx.key_line(Table::Array("sketch", 1), "image"), Some(8));
-        assert_eq!(ctx.key_line(Table::Array("sketch", 0), "image"), None);
-        assert_eq!(ctx.key_at_line(8).as_deref(), Some("sketch[1].image"));
-        assert_eq!(ctx.key_at_line(3).as_deref(), Some("world.image"));
-        assert_eq!(ctx.key_at_line(6).as_deref(), Some("sketch[1]"));
     }
 }

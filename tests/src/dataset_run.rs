@@ -17,18 +17,17 @@
 use crate::metrics::{self, StampedPose};
 use crate::real_process::{StreamSource, map_through_processes};
 use crate::relations::{Relation, score_relations};
-use crate::run::{RunResult, occupied_points, read_trajectory_csv, sketch_prior};
+use crate::run::{RunResult, read_map_occupied_points, read_trajectory_csv};
+use crate::run_loop::map_in_process;
 use anyhow::{Context, Result};
 use image::{Rgb, RgbImage};
-use sketchslam_engine::mapper::{Mapper, MapperConfig, Method, trajectory_csv};
-use sketchslam_engine::mapping::ros_export::{parse_map_yaml, parse_pgm};
+use sketchslam_engine::mapper::Method;
 use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::dataset::Dataset;
 use sketchslam_simulator::replay::Replay;
 use sketchslam_simulator::scenario::SketchConfig;
-use sketchslam_types::{Point2, Pose2, SensorEvent};
+use sketchslam_types::{Point2, Pose2};
 use std::path::Path;
-use std::time::Instant;
 
 /// Meters per pixel of `overlay.png`.
 const OVERLAY_RESOLUTION_M: f64 = 0.05;
@@ -57,72 +56,26 @@ pub fn run_dataset_in_process(
     sketch: Option<&SketchConfig>,
     out_dir: &Path,
     max_scans: Option<u64>,
-    mut progress: impl FnMut(u64, u64),
+    progress: impl FnMut(u64, u64),
 ) -> Result<RunResult> {
-    let prior = match (method, sketch) {
-        (Method::Sketch, Some(cfg)) => Some(sketch_prior(cfg)?),
-        (Method::Sketch, None) => anyhow::bail!("the sketch method needs a sketch"),
-        _ => None,
-    };
-    let config = MapperConfig {
-        seed: dataset.seed,
-        ..MapperConfig::default()
-    };
-    let mut mapper = Mapper::new(method, prior, config)?;
     let replay = Replay::new(dataset)?;
-    let total = max_scans.map_or(replay.scan_count(), |m| m.min(replay.scan_count()));
-    let mut truth_poses = Vec::new();
-    let mut mapping_s = 0.0;
-    let mut scan_ms: Vec<f64> = Vec::new();
-    for step in replay {
-        let started = Instant::now();
-        mapper.on_event(&step.event);
-        let spent_s = started.elapsed().as_secs_f64();
-        mapping_s += spent_s;
-        if let SensorEvent::Scan(scan) = &step.event {
-            scan_ms.push(spent_s * 1e3);
-            truth_poses.push(StampedPose {
-                t_s: scan.header.stamp_ns as f64 * 1e-9,
-                pose: step.truth,
-            });
-            progress(truth_poses.len() as u64, total);
-            if truth_poses.len() as u64 >= total {
-                break;
-            }
-        }
-    }
-    std::fs::create_dir_all(out_dir)?;
-    let grid = mapper.refresh_map();
-    std::fs::write(out_dir.join("map.pgm"), grid.to_pgm())?;
-    std::fs::write(out_dir.join("map.yaml"), grid.to_yaml("map.pgm"))?;
-    std::fs::write(
-        out_dir.join("trajectory.csv"),
-        trajectory_csv(mapper.trajectory()),
+    let scans = replay.scan_count();
+    let run = map_in_process(
+        replay,
+        scans,
+        method,
+        sketch,
+        dataset.seed,
+        out_dir,
+        max_scans,
+        progress,
     )?;
-    let truth_rows: Vec<(f64, Pose2)> = truth_poses.iter().map(|p| (p.t_s, p.pose)).collect();
-    sketchslam_simulator::truth::write_truth_csv(&out_dir.join("truth.csv"), &truth_rows)?;
     let relations = dataset_relations(dataset)?;
-    let mut result = score_dataset_artifacts(out_dir, &truth_poses, &relations)?;
-    if let (Some(cfg), Some(sketch_pose)) = (sketch, mapper.pose().sketch) {
-        write_sketch_artifacts(out_dir, cfg, mapper.pose().map, &sketch_pose)?;
+    let mut result = score_dataset_artifacts(out_dir, &run.truth, &relations)?;
+    if let (Some(cfg), Some(sketch_pose)) = (sketch, run.mapper.pose().sketch) {
+        write_sketch_artifacts(out_dir, cfg, run.mapper.pose().map, &sketch_pose)?;
     }
-    let health = mapper.health();
-    result.scenario = dataset.name.clone();
-    result.method = method.to_string();
-    result.sketch = sketch.map(|s| s.name.clone());
-    result.scans = health.scans_processed;
-    result.wall_s = mapping_s;
-    result.scans_per_s = health.scans_processed as f64 / mapping_s.max(1e-9);
-    result.recoveries = health.recoveries;
-    result.loop_closures = health.loop_closures;
-    scan_ms.sort_by(f64::total_cmp);
-    if !scan_ms.is_empty() {
-        result.scan_ms_mean = Some(scan_ms.iter().sum::<f64>() / scan_ms.len() as f64);
-        result.scan_ms_p99 = Some(scan_ms[(scan_ms.len() * 99 / 100).min(scan_ms.len() - 1)]);
-    }
-    if let (Some(first), Some(last)) = (truth_poses.first(), truth_poses.last()) {
-        result.realtime_factor = Some((last.t_s - first.t_s) / mapping_s.max(1e-9));
-    }
+    run.fill(&mut result, &dataset.name, method, sketch);
     Ok(result)
 }
 
@@ -164,9 +117,7 @@ pub fn score_dataset_artifacts(
     truth: &[StampedPose],
     relations: &[Relation],
 ) -> Result<RunResult> {
-    let yaml = parse_map_yaml(&std::fs::read_to_string(out_dir.join("map.yaml"))?)?;
-    let (width, height, pixels) = parse_pgm(&std::fs::read(out_dir.join("map.pgm"))?)?;
-    let occupied = occupied_points(width, height, &pixels, yaml.resolution_m, &yaml.origin);
+    let occupied = read_map_occupied_points(out_dir)?;
     let estimate = read_trajectory_csv(&out_dir.join("trajectory.csv"))?;
     let traj = metrics::score_trajectory(&estimate, truth)
         .context("the trajectory does not overlap the reference")?;
@@ -287,9 +238,7 @@ fn draw_sketch_overlay(
     final_map_pose: Pose2,
     sketch_pose: &SketchPose,
 ) -> Result<()> {
-    let yaml = parse_map_yaml(&std::fs::read_to_string(out_dir.join("map.yaml"))?)?;
-    let (width, height, pixels) = parse_pgm(&std::fs::read(out_dir.join("map.pgm"))?)?;
-    let occupied = occupied_points(width, height, &pixels, yaml.resolution_m, &yaml.origin);
+    let occupied = read_map_occupied_points(out_dir)?;
     let sketch = image::open(&cfg.image)
         .with_context(|| format!("reading {}", cfg.image.display()))?
         .to_luma8();
@@ -350,6 +299,7 @@ mod tests {
 mod intel_tests {
     use super::*;
     use crate::relations::read_relations;
+    use sketchslam_types::SensorEvent;
 
     fn intel() -> Option<Dataset> {
         let dir = Path::new(concat!(

@@ -8,3 +8,5 @@ pub mod processes;
 pub mod real_process;
 pub mod relations;
 pub mod run;
+pub mod run_loop;
+pub mod service_process;

@@ -19,14 +19,8 @@ use sketchslam_types::{Point2, Pose2};
 /// Distance within which a seen wall pixel counts as mapped, meters.
 pub const COMPLETENESS_RADIUS_M: f64 = 0.25;
 
-/// A stamped pose, stamp in seconds.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct StampedPose {
-    /// Seconds.
-    pub t_s: f64,
-    /// The pose.
-    pub pose: Pose2,
-}
+/// A stamped pose, stamp in seconds: a row of the `t,x,y,theta` CSV.
+pub use sketchslam_types::StampedPose;
 
 /// The truth's walls as a grid: row 0 at the top of the image, origin of the world frame
 /// at the image's bottom-left corner.

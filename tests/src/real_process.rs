@@ -8,16 +8,18 @@
 //! as the in-process mode does.
 
 use crate::metrics::WallGrid;
-use crate::processes::{ChildGuard, binary, free_port, unique_prefix};
+use crate::processes::{ChildGuard, binary, unique_prefix};
 use crate::run::{RunResult, Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
+use crate::run_loop::RunFigures;
+use crate::service_process::{ServiceOptions, ServiceProcess};
 use anyhow::{Context, Result, bail};
-use sketchslam_api::client::SketchslamClient;
 use sketchslam_api::types::{CreateSessionRequest, MappingMethod, SketchStart};
 use sketchslam_engine::mapper::Method;
 use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
 use sketchslam_simulator::simulation::Simulation;
 use sketchslam_simulator::world::World;
+use sketchslam_slam::method::api_method;
 use sketchslam_types::Pose2;
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -25,18 +27,8 @@ use std::time::{Duration, Instant};
 
 /// The robot id the simulator publishes under in an evaluation run.
 const ROBOT_ID: &str = "eval";
-/// How long the service may take to answer `/healthz` after start.
-const SERVICE_START_TIMEOUT: Duration = Duration::from_secs(30);
 /// How long the session may go without processing a scan once the simulator is done.
 const DRAIN_IDLE_TIMEOUT: Duration = Duration::from_secs(20);
-
-fn api_method(method: Method) -> MappingMethod {
-    match method {
-        Method::Odometry => MappingMethod::Odometry,
-        Method::Icp => MappingMethod::Icp,
-        Method::Sketch => MappingMethod::Sketch,
-    }
-}
 
 /// Maps `scenario` with `method` through the real processes and scores the result; with
 /// `max_scans`, only the run's first scans.
@@ -87,14 +79,9 @@ pub struct StreamSource<'a> {
 
 /// What the service reported once a run through the processes was done.
 pub struct ProcessRun {
-    /// Scans the session processed.
-    pub scans: u64,
-    /// Wall seconds from the simulator's start to the last scan processed.
-    pub wall_s: f64,
-    /// Recoveries of MCL on the sketch.
-    pub recoveries: u32,
-    /// Loops the session closed.
-    pub loop_closures: u32,
+    /// Scans processed, wall seconds from the simulator's start to the last scan
+    /// processed, recoveries and loops closed.
+    pub figures: RunFigures,
     /// The session's last pose: map frame, and on the drawing (`sketch` sessions).
     pub final_pose: (Pose2, Option<SketchPose>),
 }
@@ -108,14 +95,7 @@ impl ProcessRun {
         method: Method,
         sketch: Option<&SketchConfig>,
     ) {
-        result.scenario = name.to_string();
-        result.method = method.to_string();
-        result.sketch = sketch.map(|s| s.name.clone());
-        result.scans = self.scans;
-        result.wall_s = self.wall_s;
-        result.scans_per_s = self.scans as f64 / self.wall_s.max(1e-9);
-        result.recoveries = self.recoveries;
-        result.loop_closures = self.loop_closures;
+        self.figures.fill(result, name, method, sketch);
     }
 }
 
@@ -130,30 +110,17 @@ pub fn map_through_processes(
     max_scans: Option<u64>,
     mut progress: impl FnMut(u64, u64),
 ) -> Result<ProcessRun> {
-    let service_bin = binary("sketchslam-slam", "slam-service")?;
     let simulator_bin = binary("sketchslam-simulator", "simulator")?;
     std::fs::create_dir_all(out_dir)?;
     let data_dir = out_dir.join("service-data");
     let _ = std::fs::remove_dir_all(&data_dir);
     let prefix = unique_prefix("eval");
-    let port = free_port()?;
-    let log = std::fs::File::create(out_dir.join("service.log"))?;
-    let mut service = ChildGuard::spawn(
-        "slam-service",
-        Command::new(&service_bin)
-            .args(["--listen", &format!("127.0.0.1:{port}")])
-            .arg("--data-dir")
-            .arg(&data_dir)
-            .args(["--ipc-prefix", &prefix])
-            .env_remove("SKETCHSLAM_TOKEN")
-            .stdout(Stdio::null())
-            .stderr(log),
-    )?;
+    let options = ServiceOptions::new(&data_dir, &prefix, out_dir.join("service.log"));
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()?;
-    let client = SketchslamClient::new(format!("http://127.0.0.1:{port}"));
-    runtime.block_on(wait_healthy(&client, &mut service))?;
+    let mut service = runtime.block_on(ServiceProcess::start(&options))?;
+    let client = service.client.clone();
 
     let request = match (method, sketch) {
         (Method::Sketch, Some(cfg)) => {
@@ -261,28 +228,14 @@ pub fn map_through_processes(
         out_dir.join("trajectory.csv"),
         runtime.block_on(client.trajectory_csv(&session.id))?,
     )?;
-    service.terminate(Duration::from_secs(10));
+    service.guard.terminate(Duration::from_secs(10));
     Ok(ProcessRun {
-        scans: stopped.scans_processed,
-        wall_s,
-        recoveries: stopped.recoveries as u32,
-        loop_closures: stopped.loop_closures as u32,
+        figures: RunFigures {
+            scans: stopped.scans_processed,
+            wall_s,
+            recoveries: stopped.recoveries as u32,
+            loop_closures: stopped.loop_closures as u32,
+        },
         final_pose,
     })
-}
-
-async fn wait_healthy(client: &SketchslamClient, service: &mut ChildGuard) -> Result<()> {
-    let deadline = Instant::now() + SERVICE_START_TIMEOUT;
-    loop {
-        if client.health().await.is_ok() {
-            return Ok(());
-        }
-        if let Some(status) = service.child_mut().try_wait()? {
-            bail!("slam-service exited at start: {status} (see service.log)");
-        }
-        if Instant::now() > deadline {
-            bail!("slam-service did not answer /healthz within {SERVICE_START_TIMEOUT:?}");
-        }
-        tokio::time::sleep(Duration::from_millis(100)).await;
-    }
 }

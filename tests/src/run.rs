@@ -7,19 +7,22 @@
 
 use crate::metrics::{self, StampedPose, WallGrid};
 use crate::overlay;
+use crate::run_loop::map_in_process;
 use anyhow::{Context, Result};
 use serde::Serialize;
-use sketchslam_engine::mapper::{Mapper, MapperConfig, Method, SketchPrior, trajectory_csv};
-use sketchslam_engine::mapping::ros_export::{parse_map_yaml, parse_pgm};
+use sketchslam_engine::mapper::{Method, SketchPrior};
+use sketchslam_engine::mapping::ros_export::{
+    RowOrder, occupied_points_in_order, parse_map_yaml, parse_pgm,
+};
 use sketchslam_engine::sketch::{Sketch, SketchPose};
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
 use sketchslam_simulator::simulation::Simulation;
 use sketchslam_simulator::world::World;
-use sketchslam_types::{Point2, Pose2, SensorEvent};
+use sketchslam_types::Point2;
+use sketchslam_types::trajectory_csv;
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::Instant;
 
 /// Every n-th beam of a truth scan is cast to find the wall pixels the sensor saw.
 const SEEN_WALL_BEAM_STRIDE: usize = 2;
@@ -124,90 +127,34 @@ pub fn run_in_process(
     sketch: Option<&SketchConfig>,
     out_dir: &Path,
     max_scans: Option<u64>,
-    mut progress: impl FnMut(u64, u64),
+    progress: impl FnMut(u64, u64),
 ) -> Result<RunResult> {
-    let prior = match (method, sketch) {
-        (Method::Sketch, Some(cfg)) => Some(sketch_prior(cfg)?),
-        (Method::Sketch, None) => anyhow::bail!("the sketch method needs a sketch"),
-        _ => None,
-    };
-    let config = MapperConfig {
-        seed: scenario.seed,
-        ..MapperConfig::default()
-    };
-    let mut mapper = Mapper::new(method, prior, config)?;
     let world = World::load(&scenario.world.image, scenario.world.resolution_m)?;
     let sim = Simulation::new(scenario)?;
-    let total = max_scans.map_or(sim.scan_count(), |m| m.min(sim.scan_count()));
-    let mut truth_poses = Vec::new();
-    let mut mapping_s = 0.0;
-    let mut scan_ms: Vec<f64> = Vec::new();
-    for step in sim {
-        if let SensorEvent::Scan(scan) = &step.event {
-            truth_poses.push(StampedPose {
-                t_s: scan.header.stamp_ns as f64 * 1e-9,
-                pose: step.truth,
-            });
-        }
-        let started = Instant::now();
-        mapper.on_event(&step.event);
-        let spent_s = started.elapsed().as_secs_f64();
-        mapping_s += spent_s;
-        if matches!(step.event, SensorEvent::Scan(_)) {
-            scan_ms.push(spent_s * 1e3);
-            progress(truth_poses.len() as u64, total);
-            // Stop right after the last scan, as the simulator's --max-scans does.
-            if truth_poses.len() as u64 >= total {
-                break;
-            }
-        }
-    }
+    let scans = sim.scan_count();
+    let run = map_in_process(
+        sim,
+        scans,
+        method,
+        sketch,
+        scenario.seed,
+        out_dir,
+        max_scans,
+        progress,
+    )?;
     let walls = WallGrid::from_image(
         &image::open(&scenario.world.image)?.to_luma8(),
         scenario.world.resolution_m,
     );
-    let seen_walls = seen_wall_pixels(scenario, &world, &walls, &truth_poses);
-    std::fs::create_dir_all(out_dir)?;
-    let grid = mapper.refresh_map();
-    std::fs::write(out_dir.join("map.pgm"), grid.to_pgm())?;
-    std::fs::write(out_dir.join("map.yaml"), grid.to_yaml("map.pgm"))?;
-    std::fs::write(
-        out_dir.join("trajectory.csv"),
-        trajectory_csv(mapper.trajectory()),
-    )?;
-    let truth_rows: Vec<(f64, Pose2)> = truth_poses.iter().map(|p| (p.t_s, p.pose)).collect();
-    sketchslam_simulator::truth::write_truth_csv(&out_dir.join("truth.csv"), &truth_rows)?;
-    let health = mapper.health();
+    let seen_walls = seen_wall_pixels(scenario, &world, &walls, &run.truth);
     let truth = Truth {
-        poses: truth_poses,
+        poses: run.truth.clone(),
         seen_walls,
         walls,
     };
     let mut result = score_artifacts(out_dir, &truth)?;
-    result.scenario = scenario.name.clone();
-    result.method = method.to_string();
-    result.sketch = sketch.map(|s| s.name.clone());
-    result.scans = health.scans_processed;
-    result.wall_s = mapping_s;
-    result.scans_per_s = health.scans_processed as f64 / mapping_s.max(1e-9);
-    scan_ms.sort_by(f64::total_cmp);
-    if !scan_ms.is_empty() {
-        result.scan_ms_mean = Some(scan_ms.iter().sum::<f64>() / scan_ms.len() as f64);
-        result.scan_ms_p99 = Some(scan_ms[(scan_ms.len() * 99 / 100).min(scan_ms.len() - 1)]);
-    }
-    let sim_s = truth_poses_span_s(&truth);
-    result.realtime_factor = Some(sim_s / mapping_s.max(1e-9));
-    result.recoveries = health.recoveries;
-    result.loop_closures = health.loop_closures;
+    run.fill(&mut result, &scenario.name, method, sketch);
     Ok(result)
-}
-
-/// Seconds between the first and the last truth pose.
-fn truth_poses_span_s(truth: &Truth) -> f64 {
-    match (truth.poses.first(), truth.poses.last()) {
-        (Some(a), Some(b)) => b.t_s - a.t_s,
-        _ => 0.0,
-    }
 }
 
 /// Wall pixels the noise-free sensor saw from the true poses.
@@ -241,9 +188,7 @@ pub fn seen_wall_pixels(
 /// Reads a run's `map.pgm`, `map.yaml` and `trajectory.csv`, scores them against the
 /// truth and draws `overlay.png`. Scenario/method fields of the result are left empty.
 pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
-    let yaml = parse_map_yaml(&std::fs::read_to_string(out_dir.join("map.yaml"))?)?;
-    let (width, height, pixels) = parse_pgm(&std::fs::read(out_dir.join("map.pgm"))?)?;
-    let occupied = occupied_points(width, height, &pixels, yaml.resolution_m, &yaml.origin);
+    let occupied = read_map_occupied_points(out_dir)?;
     let estimate = read_trajectory_csv(&out_dir.join("trajectory.csv"))?;
     let traj = metrics::score_trajectory(&estimate, &truth.poses)
         .context("the trajectory does not overlap the truth")?;
@@ -280,58 +225,39 @@ pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
     })
 }
 
-/// Map-frame centres of the occupied pixels (value 0) of a map_server PGM, whose first row
-/// is the top of the map and whose bottom-left corner is at `origin`.
-pub fn occupied_points(
-    width: usize,
-    height: usize,
-    pixels: &[u8],
-    resolution_m: f64,
-    origin: &Pose2,
-) -> Vec<Point2> {
-    let mut out = Vec::new();
-    for row in 0..height {
-        for col in 0..width {
-            if pixels[row * width + col] == 0 {
-                let local = Point2::new(
-                    (col as f64 + 0.5) * resolution_m,
-                    ((height - 1 - row) as f64 + 0.5) * resolution_m,
-                );
-                out.push(origin.transform_point(&local));
-            }
-        }
-    }
-    out
+/// Map-frame centres of the occupied pixels of a saved map (`map.yaml` text and
+/// `map.pgm` bytes), by the engine's map_server rule
+/// ([`sketchslam_engine::mapping::ros_export::pixel_is_occupied`]). Listed top row first
+/// (the image's order): the map error sums over them in this order, as it always has.
+pub fn map_occupied_points(map_yaml: &str, map_pgm: &[u8]) -> Result<Vec<Point2>> {
+    let yaml = parse_map_yaml(map_yaml)?;
+    let (width, height, pixels) = parse_pgm(map_pgm)?;
+    Ok(occupied_points_in_order(
+        &yaml,
+        width,
+        height,
+        &pixels,
+        RowOrder::TopFirst,
+    ))
 }
 
-/// Reads a `t,x,y,theta` CSV (trajectory or truth).
+/// [`map_occupied_points`] of the `map.yaml` and `map.pgm` in `out_dir`.
+pub fn read_map_occupied_points(out_dir: &Path) -> Result<Vec<Point2>> {
+    let yaml = std::fs::read_to_string(out_dir.join("map.yaml"))?;
+    map_occupied_points(&yaml, &std::fs::read(out_dir.join("map.pgm"))?)
+}
+
+/// Reads a `t,x,y,theta` CSV (trajectory or truth), headings wrapped to (−π, π].
 pub fn read_trajectory_csv(path: &Path) -> Result<Vec<StampedPose>> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     parse_trajectory_csv(&text).with_context(|| format!("parsing {}", path.display()))
 }
 
-/// Parses `t,x,y,theta` CSV text.
+/// Parses `t,x,y,theta` CSV text ([`trajectory_csv::parse`]), headings wrapped to (−π, π].
 pub fn parse_trajectory_csv(text: &str) -> Result<Vec<StampedPose>> {
-    let mut lines = text.lines();
-    anyhow::ensure!(
-        lines.next().map(str::trim) == Some("t,x,y,theta"),
-        "header is not t,x,y,theta"
-    );
-    lines
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty())
-        .map(|(i, l)| {
-            let f: Vec<f64> = l
-                .split(',')
-                .map(|v| v.trim().parse::<f64>())
-                .collect::<Result<_, _>>()
-                .with_context(|| format!("line {}", i + 2))?;
-            anyhow::ensure!(f.len() == 4, "line {}: expected 4 fields", i + 2);
-            Ok(StampedPose {
-                t_s: f[0],
-                pose: Pose2::new(f[1], f[2], f[3]),
-            })
-        })
-        .collect()
+    Ok(trajectory_csv::parse(text)?
+        .into_iter()
+        .map(StampedPose::wrapped)
+        .collect())
 }

@@ -6,77 +6,22 @@
 //!
 //! Each run has its own iceoryx2 prefix, data dir and port; children are killed on drop.
 
-use std::path::{Path, PathBuf};
+mod common;
+
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, Result, bail, ensure};
-use sketchslam_api::{
-    CreateSessionRequest, MappingMethod, SessionState, SketchStart, SketchslamClient,
-};
+use anyhow::{Context, Result, ensure};
+use common::{TempDir, dump_log, start_service};
+use sketchslam_api::{CreateSessionRequest, MappingMethod, SessionState, SketchStart};
 use sketchslam_simulator::scenario::Scenario;
 use sketchslam_simulator::world::World;
 use sketchslam_tests::metrics::WallGrid;
-use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario, free_port, unique_prefix};
+use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario, unique_prefix};
 use sketchslam_tests::run::{Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
 
 /// Scans the simulator publishes: about 30 s of driving, the first corridor and a turn.
 const SCANS: u64 = 600;
-
-/// A folder removed on drop.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(tag: &str) -> Result<Self> {
-        let p = std::env::temp_dir().join(format!("{}-{tag}", unique_prefix("e2e")));
-        std::fs::create_dir_all(&p)?;
-        Ok(TempDir(p))
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-struct Service {
-    guard: ChildGuard,
-    client: SketchslamClient,
-}
-
-async fn start_service(data_dir: &Path, prefix: &str) -> Result<Service> {
-    let exe = binary("sketchslam-slam", "slam-service")?;
-    let port = free_port()?;
-    let guard = ChildGuard::spawn(
-        "slam-service",
-        Command::new(exe)
-            .args(["--listen", &format!("127.0.0.1:{port}")])
-            .arg("--data-dir")
-            .arg(data_dir)
-            .args(["--ipc-prefix", prefix])
-            .env_remove("SKETCHSLAM_TOKEN")
-            .stdout(Stdio::null())
-            .stderr(
-                std::fs::File::options()
-                    .create(true)
-                    .append(true)
-                    .open(data_dir.with_extension("log"))?,
-            ),
-    )?;
-    let client = SketchslamClient::new(format!("http://127.0.0.1:{port}"));
-    let deadline = Instant::now() + Duration::from_secs(60);
-    loop {
-        if client.health().await.is_ok() {
-            break;
-        }
-        if Instant::now() > deadline {
-            bail!("slam-service did not answer /healthz within 60 s");
-        }
-        tokio::time::sleep(Duration::from_millis(100)).await;
-    }
-    Ok(Service { guard, client })
-}
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn service_maps_paper_env1_with_sketch_a_over_http() -> Result<()> {
@@ -84,11 +29,7 @@ async fn service_maps_paper_env1_with_sketch_a_over_http() -> Result<()> {
     let result = map_paper_env1(&dir).await;
     if result.is_err() {
         // The service's log, to see why (it is removed with the folder).
-        let log = std::fs::read_to_string(dir.0.join("data.log")).unwrap_or_default();
-        let tail: Vec<&str> = log.lines().rev().take(60).collect();
-        for line in tail.iter().rev() {
-            eprintln!("slam-service| {line}");
-        }
+        dump_log(&dir.0.join("data.log"), 60);
     }
     result
 }
@@ -105,7 +46,7 @@ async fn map_paper_env1(dir: &TempDir) -> Result<()> {
     let simulator = binary("sketchslam-simulator", "simulator")?;
     let data_dir = dir.0.join("data");
     let prefix = unique_prefix("e2e");
-    let mut service = start_service(&data_dir, &prefix).await?;
+    let mut service = start_service(&data_dir, &prefix, &[], &[]).await?;
     let client = service.client.clone();
 
     let sketch = client
@@ -242,7 +183,7 @@ async fn map_paper_env1(dir: &TempDir) -> Result<()> {
         .terminate(Duration::from_secs(30))
         .context("slam-service already gone")?;
     ensure!(exit.success(), "slam-service exited with {exit}");
-    let again = start_service(&data_dir, &prefix).await?;
+    let again = start_service(&data_dir, &prefix, &[], &[]).await?;
     let listed = again.client.list_sketches().await?;
     ensure!(listed.sketches.iter().any(|s| s.id == sketch.id));
     let info = again.client.get_session(&session.id).await?;

@@ -25,12 +25,11 @@ use common::{
     start_sketch_a_session, wait_session, wait_settled,
 };
 use sketchslam_api::SessionState;
-use sketchslam_engine::mapping::ros_export::{parse_map_yaml, parse_pgm};
 use sketchslam_simulator::world::World;
 use sketchslam_tests::metrics::{WallGrid, score_map, score_trajectory};
 use sketchslam_tests::processes::unique_prefix;
 use sketchslam_tests::run::{
-    occupied_points, parse_trajectory_csv, read_trajectory_csv, seen_wall_pixels,
+    map_occupied_points, parse_trajectory_csv, read_trajectory_csv, seen_wall_pixels,
 };
 
 /// Scans processed before the simulator is killed.
@@ -148,9 +147,10 @@ async fn run(dir: &TempDir, data: &std::path::Path, strict_trajectory: bool) -> 
     // The map after the restart, scored against the restarted run's truth.
     let stopped = client.stop_session(&session.id).await?;
     ensure!(stopped.state == SessionState::Stopped);
-    let yaml = parse_map_yaml(&client.map_yaml(&session.id).await?)?;
-    let (w, h, pixels) = parse_pgm(&client.map_pgm(&session.id).await?)?;
-    let occupied = occupied_points(w, h, &pixels, yaml.resolution_m, &yaml.origin);
+    let occupied = map_occupied_points(
+        &client.map_yaml(&session.id).await?,
+        &client.map_pgm(&session.id).await?,
+    )?;
     let estimate = parse_trajectory_csv(&client.trajectory_csv(&session.id).await?)?;
     // The poses the restarted run added (its stamps restart at 0).
     ensure!(estimate.len() > before.len(), "no pose after the restart");

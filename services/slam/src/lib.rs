@@ -14,6 +14,7 @@
 
 pub mod config;
 pub mod intake;
+pub mod method;
 pub mod metrics;
 pub mod registry;
 pub mod session;

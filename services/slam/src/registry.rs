@@ -19,13 +19,15 @@ use tokio::sync::broadcast;
 
 use super::RuntimeError;
 use super::config::RegistryConfig;
+use super::method::engine_method;
 use super::metrics::{Histogram, render_metrics};
 use super::session::{Session, lock, now_unix_ms};
 use super::storage::{SessionMeta, SketchMeta, Storage};
 use sketchslam_engine::EngineError;
-use sketchslam_engine::mapper::{Mapper, Method, SketchPrior};
+use sketchslam_engine::mapper::{Mapper, SketchPrior};
 use sketchslam_engine::sketch::overlay::{encode_png, render_overlay};
 use sketchslam_engine::sketch::{Sketch, SketchPose};
+use sketchslam_types::trajectory_csv;
 
 /// A stored sketch, processed.
 struct StoredSketch {
@@ -104,34 +106,16 @@ fn image_error(e: EngineError) -> ApiError {
     }
 }
 
-fn method_of(m: MappingMethod) -> Method {
-    match m {
-        MappingMethod::Sketch => Method::Sketch,
-        MappingMethod::Icp => Method::Icp,
-        MappingMethod::Odometry => Method::Odometry,
-    }
-}
-
-/// Parses a stored `trajectory.csv`.
+/// Parses a stored `trajectory.csv`; the values as stored (headings not re-wrapped).
 fn parse_trajectory(session_id: &str, csv: &str) -> Result<TrajectoryResponse, ApiError> {
-    let mut points = Vec::new();
-    for (i, line) in csv.lines().enumerate().skip(1) {
-        let v: Vec<f64> = line
-            .split(',')
-            .map(|f| f.trim().parse::<f64>())
-            .collect::<Result<_, _>>()
-            .map_err(|e| ApiError::internal(format!("trajectory.csv line {}: {e}", i + 1)))?;
-        let [t, x, y, theta] = v[..] else {
-            return Err(ApiError::internal(format!(
-                "trajectory.csv line {}: expected 4 fields",
-                i + 1
-            )));
-        };
-        points.push(TrajectoryPointInfo { t, x, y, theta });
-    }
+    let rows = trajectory_csv::parse(csv)
+        .map_err(|e| ApiError::internal(format!("trajectory.csv {e}")))?;
     Ok(TrajectoryResponse {
         session_id: session_id.to_string(),
-        points,
+        points: rows
+            .iter()
+            .map(TrajectoryPointInfo::from_stamped_pose)
+            .collect(),
     })
 }
 
@@ -230,7 +214,7 @@ impl Registry {
     }
 
     fn start_session(&self, request: &CreateSessionRequest, id: &str) -> Result<Session, ApiError> {
-        let method = method_of(request.method);
+        let method = engine_method(request.method);
         let prior = match request.method {
             MappingMethod::Sketch => {
                 let sketch_id = request.sketch_id.as_deref().unwrap_or_default();

@@ -224,7 +224,7 @@ impl Session {
     pub fn grid(&self) -> OccupancyGrid {
         let m = lock(&self.mapper);
         if m.map_is_current() || !self.shared.mapping.load(Ordering::Acquire) {
-            return m.grid().clone();
+            return m.grid_as_built().clone();
         }
         self.shared.map_wanted.store(true, Ordering::Release);
         let (m, _) = self
@@ -234,7 +234,7 @@ impl Session {
                 !m.map_is_current() && self.shared.mapping.load(Ordering::Acquire)
             })
             .unwrap_or_else(|e| e.into_inner());
-        m.grid().clone()
+        m.grid_as_built().clone()
     }
 
     /// Stops the intake (it drains what arrived), lets the mapper process everything
@@ -250,7 +250,7 @@ impl Session {
             // The mapper thread rebuilt the map when the intake hung up.
             let m = lock(&self.mapper);
             (
-                m.grid().clone(),
+                m.grid_as_built().clone(),
                 m.trajectory().to_vec(),
                 pose_response(&self.id, &m.pose(), &m.health()),
             )

@@ -16,10 +16,9 @@ use sketchslam_api::{
     CreateSessionRequest, MappingMethod, SessionInfo, SessionState, SketchStart, SketchslamClient,
 };
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
-use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario, free_port, unique_prefix};
-
-/// How long the service may take to answer `/healthz`.
-pub const SERVICE_START_TIMEOUT: Duration = Duration::from_secs(60);
+use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario, unique_prefix};
+pub use sketchslam_tests::service_process::dump_log;
+use sketchslam_tests::service_process::{ServiceOptions, ServiceProcess};
 
 /// A folder removed on drop.
 pub struct TempDir(pub PathBuf);
@@ -40,81 +39,24 @@ impl Drop for TempDir {
 }
 
 /// A running `slam-service` and a client of it.
-pub struct Service {
-    /// The process.
-    pub guard: ChildGuard,
-    /// A client of its API (without a token).
-    pub client: SketchslamClient,
-    /// `http://127.0.0.1:PORT`.
-    pub base: String,
-    /// Where its stderr goes.
-    pub log: PathBuf,
-}
+pub type Service = ServiceProcess;
 
 /// Starts `slam-service` on a free port over `data_dir` and `prefix`, with `extra` arguments
-/// and `env` variables, and waits until `/healthz` answers 200.
+/// and `env` variables, logging to `data_dir.log` (appended: a restart on the same data dir
+/// continues it), and waits until `/healthz` answers.
 pub async fn start_service(
     data_dir: &Path,
     prefix: &str,
     extra: &[&str],
     env: &[(&str, &str)],
 ) -> Result<Service> {
-    let exe = binary("sketchslam-slam", "slam-service")?;
-    let port = free_port()?;
-    let log = data_dir.with_extension("log");
-    let mut cmd = Command::new(exe);
-    cmd.args(["--listen", &format!("127.0.0.1:{port}")])
-        .arg("--data-dir")
-        .arg(data_dir)
-        .args(["--ipc-prefix", prefix])
-        .args(extra)
-        .env_remove("SKETCHSLAM_TOKEN")
-        .env_remove("SKETCHSLAM_MAX_BODY_BYTES")
-        .stdout(Stdio::null())
-        .stderr(
-            std::fs::File::options()
-                .create(true)
-                .append(true)
-                .open(&log)?,
-        );
+    let mut options =
+        ServiceOptions::new(data_dir, prefix, data_dir.with_extension("log")).append_log();
+    options = options.args(extra);
     for (k, v) in env {
-        cmd.env(k, v);
+        options = options.env(*k, *v);
     }
-    let mut guard = ChildGuard::spawn("slam-service", &mut cmd)?;
-    let base = format!("http://127.0.0.1:{port}");
-    let client = SketchslamClient::new(base.clone());
-    let http = reqwest::Client::new();
-    let deadline = Instant::now() + SERVICE_START_TIMEOUT;
-    loop {
-        // Plain GET: /healthz needs no token even when the service has one.
-        if let Ok(r) = http.get(format!("{base}/healthz")).send().await
-            && r.status().is_success()
-        {
-            break;
-        }
-        if let Some(status) = guard.child_mut().try_wait()? {
-            bail!("slam-service exited at start: {status}");
-        }
-        if Instant::now() > deadline {
-            bail!("slam-service did not answer /healthz within {SERVICE_START_TIMEOUT:?}");
-        }
-        tokio::time::sleep(Duration::from_millis(100)).await;
-    }
-    Ok(Service {
-        guard,
-        client,
-        base,
-        log,
-    })
-}
-
-/// Prints the last lines of a service log (on failure).
-pub fn dump_log(log: &Path, lines: usize) {
-    let text = std::fs::read_to_string(log).unwrap_or_default();
-    let tail: Vec<&str> = text.lines().rev().take(lines).collect();
-    for line in tail.iter().rev() {
-        eprintln!("slam-service| {line}");
-    }
+    ServiceProcess::start(&options).await
 }
 
 /// `paper-env1` and its sketch A.

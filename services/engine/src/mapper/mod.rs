@@ -358,8 +358,8 @@ impl Mapper {
     }
 
     /// The grid as last built: current unless a correction moved the keyframes since
-    /// ([`Mapper::map_is_current`]).
-    pub fn grid(&self) -> &OccupancyGrid {
+    /// ([`Mapper::map_is_current`]); [`Mapper::refresh_map`] gives the current one.
+    pub fn grid_as_built(&self) -> &OccupancyGrid {
         &self.grid
     }
 

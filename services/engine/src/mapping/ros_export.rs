@@ -11,8 +11,10 @@
 //! - a PNG with the same picture as the PGM.
 //!
 //! Reading back: [`parse_pgm`], [`parse_map_yaml`] and [`occupied_points_from_map`] apply
-//! map_server's rule (`p = (255 − v) / 255`, or `v / 255` with `negate`; occupied when
-//! `p > occupied_thresh`), so a saved map yields exactly [`OccupancyGrid::occupied_points`]
+//! map_server's rule ([`pixel_is_occupied`], the workspace's one copy of it: `p = (255 − v)
+//! / 255`, or `v / 255` with `negate`; occupied when `p > occupied_thresh`), so a saved map
+//! yields exactly [`OccupancyGrid::occupied_points`] again; the evaluation scores maps
+//! through [`occupied_points_in_order`].
 //! again. All functions are O(cells) and never panic on malformed input.
 
 use crate::error::EngineError;
@@ -332,31 +334,62 @@ pub fn parse_map_yaml(text: &str) -> Result<MapYaml, EngineError> {
     })
 }
 
+/// The order in which [`occupied_points_in_order`] lists the pixels of a map read back.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RowOrder {
+    /// Bottom row of the map first (the grid's order, [`OccupancyGrid::occupied_points`]).
+    BottomFirst,
+    /// Top row first, the image's own order (the PGM's first row first).
+    TopFirst,
+}
+
+/// map_server's rule for one pixel value `v` of a map: `p = (255 − v)/255` (`v/255` with
+/// `negate`) is the occupancy probability, and the pixel is occupied when
+/// `p > occupied_thresh`.
+pub fn pixel_is_occupied(meta: &MapYaml, v: u8) -> bool {
+    let v = v as f64;
+    let p = if meta.negate {
+        v / 255.0
+    } else {
+        (255.0 - v) / 255.0
+    };
+    p > meta.occupied_thresh
+}
+
 /// Centres of the occupied pixels of a map read back from disk, in the map frame:
 /// pixel `(c, r)` of the image (row 0 at the top) is cell `(c, height − 1 − r)`, occupied
-/// when map_server's `p = (255 − v)/255` (`v/255` with `negate`) exceeds
-/// `occupied_thresh`. Bottom row first, like [`OccupancyGrid::occupied_points`].
+/// by [`pixel_is_occupied`]. Bottom row first, like [`OccupancyGrid::occupied_points`].
 pub fn occupied_points_from_map(
     meta: &MapYaml,
     width: usize,
     height: usize,
     pixels: &[u8],
 ) -> Vec<Point2> {
+    occupied_points_in_order(meta, width, height, pixels, RowOrder::BottomFirst)
+}
+
+/// [`occupied_points_from_map`] with the rows in `order` (left to right within a row).
+/// The points are the same; a sum over them depends on the order in its last bits.
+pub fn occupied_points_in_order(
+    meta: &MapYaml,
+    width: usize,
+    height: usize,
+    pixels: &[u8],
+    order: RowOrder,
+) -> Vec<Point2> {
     let mut out = Vec::new();
     if pixels.len() < width.saturating_mul(height) {
         return out;
     }
     let r = meta.resolution_m;
-    for row in 0..height {
+    for k in 0..height {
+        let row = match order {
+            RowOrder::BottomFirst => k,
+            RowOrder::TopFirst => height - 1 - k,
+        };
         let img_row = height - 1 - row;
         for col in 0..width {
-            let v = pixels[img_row * width + col] as f64;
-            let p = if meta.negate {
-                v / 255.0
-            } else {
-                (255.0 - v) / 255.0
-            };
-            if p > meta.occupied_thresh {
+            if pixel_is_occupied(meta, pixels[img_row * width + col]) {
                 let local = Point2::new((col as f64 + 0.5) * r, (row as f64 + 0.5) * r);
                 out.push(if meta.origin.heading_rad == 0.0 {
                     Point2::new(meta.origin.x + local.x, meta.origin.y + local.y)

@@ -1,5 +1,5 @@
 //! Support shared by `bench-fleet` and `bench-http` (included with `#[path]`, not a binary):
-//! starting the real `slam-service`, the real-time simulator, sessions on `paper-env1`, the
+//! starting the real `slam-service` (through `ServiceProcess`), the real-time simulator, sessions on `paper-env1`, the
 //! service's CPU time from `/proc`, and the scan processing time histogram from `/metrics`.
 
 #![allow(dead_code)]
@@ -8,55 +8,22 @@ use anyhow::{Context, Result, bail};
 use sketchslam_api::{
     CreateSessionRequest, MappingMethod, SessionInfo, SketchStart, SketchslamClient,
 };
+use sketchslam_engine::mapper::Method;
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
-use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario, free_port};
+use sketchslam_slam::method::api_method;
+use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario};
+use sketchslam_tests::service_process::{ServiceOptions, ServiceProcess};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// A running service.
-pub struct Service {
-    /// The process.
-    pub guard: ChildGuard,
-    /// Its API.
-    pub client: SketchslamClient,
-    /// `http://127.0.0.1:PORT`.
-    pub base: String,
-}
-
-/// Starts `slam-service` over `data_dir` and waits for `/healthz` (30 s at most).
-pub async fn start_service(data_dir: &Path, prefix: &str, log: &Path) -> Result<Service> {
-    let exe = binary("sketchslam-slam", "slam-service")?;
-    let port = free_port()?;
-    let mut guard = ChildGuard::spawn(
-        "slam-service",
-        Command::new(exe)
-            .args(["--listen", &format!("127.0.0.1:{port}")])
-            .arg("--data-dir")
-            .arg(data_dir)
-            .args(["--ipc-prefix", prefix, "--max-sessions", "64"])
-            .env_remove("SKETCHSLAM_TOKEN")
-            .env("RUST_LOG", "warn")
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(log)?),
-    )?;
-    let base = format!("http://127.0.0.1:{port}");
-    let client = SketchslamClient::new(base.clone());
-    let deadline = Instant::now() + Duration::from_secs(30);
-    while client.health().await.is_err() {
-        if let Some(status) = guard.child_mut().try_wait()? {
-            bail!("slam-service exited at start: {status}");
-        }
-        if Instant::now() > deadline {
-            bail!("slam-service did not answer /healthz within 30 s");
-        }
-        tokio::time::sleep(Duration::from_millis(100)).await;
-    }
-    Ok(Service {
-        guard,
-        client,
-        base,
-    })
+/// Starts `slam-service` over `data_dir` as the benchmarks run it (64 sessions at most,
+/// warnings only in `log`) and waits for `/healthz`.
+pub async fn start_service(data_dir: &Path, prefix: &str, log: &Path) -> Result<ServiceProcess> {
+    let options = ServiceOptions::new(data_dir, prefix, log)
+        .args(["--max-sessions", "64"])
+        .env("RUST_LOG", "warn");
+    ServiceProcess::start(&options).await
 }
 
 /// `paper-env1` and its sketch A.
@@ -71,14 +38,11 @@ pub fn paper_env1() -> Result<(Scenario, SketchConfig)> {
     Ok((scenario, sketch))
 }
 
-/// Parses `sketch`, `icp` or `odometry`.
+/// Parses `sketch`, `icp` or `odometry` (the engine's names, through the runtime's one
+/// mapping to the API's methods).
 pub fn parse_method(s: &str) -> Result<MappingMethod> {
-    Ok(match s {
-        "sketch" => MappingMethod::Sketch,
-        "icp" => MappingMethod::Icp,
-        "odometry" => MappingMethod::Odometry,
-        other => bail!("unknown method {other:?} (sketch, icp, odometry)"),
-    })
+    let method: Method = s.parse()?;
+    Ok(api_method(method))
 }
 
 /// Starts a session for `robot`; `sketch_id` is the uploaded sketch A for the sketch method.
@@ -187,11 +151,9 @@ pub async fn wait_settled(
 pub fn truth_rows(path: &Path) -> Result<u64> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    Ok(text
-        .lines()
-        .skip(1)
-        .filter(|l| !l.trim().is_empty())
-        .count() as u64)
+    let rows = sketchslam_types::trajectory_csv::parse(&text)
+        .with_context(|| format!("parsing {}", path.display()))?;
+    Ok(rows.len() as u64)
 }
 
 /// Samples the simulator discarded for a full subscriber buffer (its `done` log line).

@@ -1,0 +1,166 @@
+//! The in-process mapping loop shared by scenario runs ([`crate::run`]) and dataset runs
+//! ([`crate::dataset_run`]): a stream of [`SimStep`]s (a `Simulation` or a `Replay`, which
+//! yield the same steps) fed to the engine's [`Mapper`], timed per scan, with the true
+//! pose of every scan kept; then the run's artifacts written as the real processes would
+//! (`map.pgm`, `map.yaml`, `trajectory.csv`, `truth.csv`).
+//!
+//! Scoring stays with each caller (walls and completeness for a scenario, relations for a
+//! dataset); [`RunFigures`] fills the figures every run reports, in-process or through the
+//! processes ([`crate::real_process`]).
+
+use crate::metrics::StampedPose;
+use crate::run::{RunResult, sketch_prior};
+use anyhow::Result;
+use sketchslam_engine::mapper::{Mapper, MapperConfig, Method, trajectory_csv};
+use sketchslam_simulator::SimStep;
+use sketchslam_simulator::scenario::SketchConfig;
+use sketchslam_types::SensorEvent;
+use std::path::Path;
+use std::time::Instant;
+
+/// A finished in-process mapping: the mapper and what the loop measured.
+pub struct InProcessRun {
+    /// The mapper after the last scan.
+    pub mapper: Mapper,
+    /// The true pose at every scan mapped, stamp in seconds.
+    pub truth: Vec<StampedPose>,
+    /// Engine seconds spent in `Mapper::on_event` (scans and odometry).
+    pub mapping_s: f64,
+    /// Engine milliseconds per scan, in scan order.
+    pub scan_ms: Vec<f64>,
+}
+
+/// Maps `steps` (a stream of `scan_count` scans) with `method` (and, for `sketch`, the
+/// drawing `sketch`) seeded with `seed`; with `max_scans`, only the first scans (stopping
+/// right after the last, as the simulator's `--max-scans` does). `progress(done, total)`
+/// is called after every scan. Writes `map.pgm`, `map.yaml`, `trajectory.csv` and
+/// `truth.csv` into `out_dir`.
+#[allow(clippy::too_many_arguments)]
+pub fn map_in_process(
+    steps: impl IntoIterator<Item = SimStep>,
+    scan_count: u64,
+    method: Method,
+    sketch: Option<&SketchConfig>,
+    seed: u64,
+    out_dir: &Path,
+    max_scans: Option<u64>,
+    mut progress: impl FnMut(u64, u64),
+) -> Result<InProcessRun> {
+    let prior = match (method, sketch) {
+        (Method::Sketch, Some(cfg)) => Some(sketch_prior(cfg)?),
+        (Method::Sketch, None) => anyhow::bail!("the sketch method needs a sketch"),
+        _ => None,
+    };
+    let config = MapperConfig {
+        seed,
+        ..MapperConfig::default()
+    };
+    let mut mapper = Mapper::new(method, prior, config)?;
+    let total = max_scans.map_or(scan_count, |m| m.min(scan_count));
+    let mut truth = Vec::new();
+    let mut mapping_s = 0.0;
+    let mut scan_ms: Vec<f64> = Vec::new();
+    for step in steps {
+        // The truth does not depend on the mapper: recorded before it runs, outside the
+        // timed call.
+        if let SensorEvent::Scan(scan) = &step.event {
+            truth.push(StampedPose {
+                t_s: scan.header.stamp_ns as f64 * 1e-9,
+                pose: step.truth,
+            });
+        }
+        let started = Instant::now();
+        mapper.on_event(&step.event);
+        let spent_s = started.elapsed().as_secs_f64();
+        mapping_s += spent_s;
+        if matches!(step.event, SensorEvent::Scan(_)) {
+            scan_ms.push(spent_s * 1e3);
+            progress(truth.len() as u64, total);
+            if truth.len() as u64 >= total {
+                break;
+            }
+        }
+    }
+    std::fs::create_dir_all(out_dir)?;
+    let grid = mapper.refresh_map();
+    std::fs::write(out_dir.join("map.pgm"), grid.to_pgm())?;
+    std::fs::write(out_dir.join("map.yaml"), grid.to_yaml("map.pgm"))?;
+    std::fs::write(
+        out_dir.join("trajectory.csv"),
+        trajectory_csv(mapper.trajectory()),
+    )?;
+    sketchslam_simulator::truth::write_truth_csv(&out_dir.join("truth.csv"), &truth)?;
+    Ok(InProcessRun {
+        mapper,
+        truth,
+        mapping_s,
+        scan_ms,
+    })
+}
+
+impl InProcessRun {
+    /// The figures of the run (scans, engine seconds, recoveries, loop closures).
+    pub fn figures(&self) -> RunFigures {
+        let health = self.mapper.health();
+        RunFigures {
+            scans: health.scans_processed,
+            wall_s: self.mapping_s,
+            recoveries: health.recoveries,
+            loop_closures: health.loop_closures,
+        }
+    }
+
+    /// Writes the run's name, figures and engine timing (mean and 99th percentile per
+    /// scan, realtime factor over the truth's span) into a scored `result`.
+    pub fn fill(
+        &self,
+        result: &mut RunResult,
+        name: &str,
+        method: Method,
+        sketch: Option<&SketchConfig>,
+    ) {
+        self.figures().fill(result, name, method, sketch);
+        let mut scan_ms = self.scan_ms.clone();
+        scan_ms.sort_by(f64::total_cmp);
+        if !scan_ms.is_empty() {
+            result.scan_ms_mean = Some(scan_ms.iter().sum::<f64>() / scan_ms.len() as f64);
+            result.scan_ms_p99 = Some(scan_ms[(scan_ms.len() * 99 / 100).min(scan_ms.len() - 1)]);
+        }
+        if let (Some(first), Some(last)) = (self.truth.first(), self.truth.last()) {
+            result.realtime_factor = Some((last.t_s - first.t_s) / self.mapping_s.max(1e-9));
+        }
+    }
+}
+
+/// What every run reports besides its scores, in-process or through the processes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunFigures {
+    /// Scans processed.
+    pub scans: u64,
+    /// Seconds of the mapping (engine time in-process, wall time through the processes).
+    pub wall_s: f64,
+    /// Recoveries of MCL on the sketch.
+    pub recoveries: u32,
+    /// Loops closed.
+    pub loop_closures: u32,
+}
+
+impl RunFigures {
+    /// Writes the run's name and these figures into a scored `result`.
+    pub fn fill(
+        &self,
+        result: &mut RunResult,
+        name: &str,
+        method: Method,
+        sketch: Option<&SketchConfig>,
+    ) {
+        result.scenario = name.to_string();
+        result.method = method.to_string();
+        result.sketch = sketch.map(|s| s.name.clone());
+        result.scans = self.scans;
+        result.wall_s = self.wall_s;
+        result.scans_per_s = self.scans as f64 / self.wall_s.max(1e-9);
+        result.recoveries = self.recoveries;
+        result.loop_closures = self.loop_closures;
+    }
+}
