@@ -12,6 +12,7 @@
 //! [`run`] serves until its `shutdown` future completes, then stops every session (storing
 //! its map and trajectory under the data dir) before returning.
 
+pub mod codec;
 pub mod config;
 pub mod intake;
 pub mod method;

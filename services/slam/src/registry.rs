@@ -10,14 +10,14 @@ use std::sync::{Arc, Mutex};
 
 use axum::body::Bytes;
 use sketchslam_api::{
-    ApiError, Backend, CreateSessionRequest, MappingMethod, OccupancyGridResponse, PixelPoint,
-    PoseResponse, SessionEvent, SessionInfo, SessionState, SketchInfo, SketchLineInfo,
-    SketchSummary, TrajectoryPointInfo, TrajectoryResponse,
+    ApiError, Backend, CreateSessionRequest, MappingMethod, OccupancyGridResponse, PoseResponse,
+    SessionEvent, SessionInfo, SessionState, SketchInfo, SketchSummary, TrajectoryResponse,
 };
 use sketchslam_ipc::IpcConfig;
 use tokio::sync::broadcast;
 
 use super::RuntimeError;
+use super::codec::{image_error, occupancy_response, sketch_info, stored_trajectory_response};
 use super::config::RegistryConfig;
 use super::method::engine_method;
 use super::metrics::{Histogram, render_metrics};
@@ -27,7 +27,6 @@ use sketchslam_engine::EngineError;
 use sketchslam_engine::mapper::{Mapper, SketchPrior};
 use sketchslam_engine::sketch::overlay::{encode_png, render_overlay};
 use sketchslam_engine::sketch::{Sketch, SketchPose};
-use sketchslam_types::trajectory_csv;
 
 /// A stored sketch, processed.
 struct StoredSketch {
@@ -65,58 +64,6 @@ pub struct Registry {
     sketches: Mutex<BTreeMap<String, Arc<StoredSketch>>>,
     sessions: Mutex<Sessions>,
     closing: AtomicBool,
-}
-
-fn sketch_info(meta: &SketchMeta, sketch: &Sketch) -> SketchInfo {
-    SketchInfo {
-        id: meta.id.clone(),
-        name: meta.name.clone(),
-        width_px: sketch.width_px,
-        height_px: sketch.height_px,
-        created_unix_ms: meta.created_unix_ms,
-        lines: sketch
-            .lines
-            .iter()
-            .map(|l| SketchLineInfo {
-                index: l.index,
-                a: PixelPoint { u: l.a.x, v: l.a.y },
-                b: PixelPoint { u: l.b.x, v: l.b.y },
-                angle_deg: l.angle_rad.to_degrees(),
-                length_px: l.length_px(),
-            })
-            .collect(),
-    }
-}
-
-fn image_error(e: EngineError) -> ApiError {
-    match e {
-        EngineError::ImageTooLarge(m) => ApiError::too_large("image_too_large", m),
-        EngineError::NoStrokes => ApiError::invalid(
-            "no_lines",
-            "no strokes found in the drawing: draw walls dark on light (or light on dark)",
-        ),
-        EngineError::NoLines => {
-            ApiError::invalid("no_lines", "no straight lines found in the drawing")
-        }
-        EngineError::ImageDecode(m) => ApiError::invalid(
-            "invalid_image",
-            format!("the body is not a PNG or JPEG image that decodes: {m}"),
-        ),
-        other => ApiError::invalid("invalid_image", other.to_string()),
-    }
-}
-
-/// Parses a stored `trajectory.csv`; the values as stored (headings not re-wrapped).
-fn parse_trajectory(session_id: &str, csv: &str) -> Result<TrajectoryResponse, ApiError> {
-    let rows = trajectory_csv::parse(csv)
-        .map_err(|e| ApiError::internal(format!("trajectory.csv {e}")))?;
-    Ok(TrajectoryResponse {
-        session_id: session_id.to_string(),
-        points: rows
-            .iter()
-            .map(TrajectoryPointInfo::from_stamped_pose)
-            .collect(),
-    })
 }
 
 impl Registry {
@@ -442,7 +389,7 @@ impl Backend for Registry {
             Ok(s) => Ok(s.trajectory()),
             Err(_) => {
                 let csv = self.stored_file(id, "trajectory.csv")?;
-                parse_trajectory(id, &String::from_utf8_lossy(&csv))
+                stored_trajectory_response(id, &String::from_utf8_lossy(&csv))
             }
         }
     }
@@ -470,7 +417,7 @@ impl Backend for Registry {
 
     fn map_occupancy(&self, id: &str) -> Result<OccupancyGridResponse, ApiError> {
         match self.live(id)? {
-            Ok(s) => Ok(super::session::occupancy_response(id, &s.grid())),
+            Ok(s) => Ok(occupancy_response(id, &s.grid())),
             Err(_) => serde_json::from_slice(&self.stored_file(id, "map.json")?)
                 .map_err(|e| ApiError::internal(format!("map.json of session {id}: {e}"))),
         }

@@ -19,17 +19,17 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use sketchslam_api::{
-    ApiError, OccupancyGridResponse, Pose2Info, PoseResponse, SessionEvent, SessionInfo,
-    SessionState, SketchPoseInfo, TrajectoryPointInfo, TrajectoryResponse,
+    ApiError, PoseResponse, SessionEvent, SessionInfo, SessionState, TrajectoryResponse,
 };
 use sketchslam_ipc::IpcConfig;
 use sketchslam_types::SensorEvent;
 use tokio::sync::broadcast;
 
+use super::codec::{occupancy_response, pose_response, trajectory_response};
 use super::intake::{Intake, IntakeMsg};
 use super::metrics::Histogram;
 use super::storage::{SessionFiles, SessionMeta};
-use sketchslam_engine::mapper::{Health, Mapper, PoseEstimate, TrajectoryPoint, trajectory_csv};
+use sketchslam_engine::mapper::{Mapper, trajectory_csv};
 use sketchslam_engine::mapping::grid::OccupancyGrid;
 
 /// Capacity of a session's event broadcast; a slower SSE client skips events.
@@ -53,65 +53,6 @@ pub(crate) fn now_unix_ms() -> u64 {
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_millis() as u64)
         .unwrap_or(0)
-}
-
-/// The pose response of a mapper state.
-pub fn pose_response(session_id: &str, pose: &PoseEstimate, health: &Health) -> PoseResponse {
-    let initialized = health.initialized || health.scans_processed > 0;
-    PoseResponse {
-        session_id: session_id.to_string(),
-        x: pose.map.x,
-        y: pose.map.y,
-        theta: pose.map.heading_rad,
-        stamp: initialized.then_some(pose.stamp_ns as f64 * 1e-9),
-        sketch: pose.sketch.map(|s| SketchPoseInfo {
-            u: s.u_px,
-            v: s.v_px,
-            heading_deg: s.heading_rad.to_degrees(),
-            meters_per_pixel: s.meters_per_pixel,
-        }),
-        map_id: session_id.to_string(),
-        position_initialized: initialized,
-        localization_score: if health.localization_score.is_finite() {
-            health.localization_score.clamp(0.0, 1.0)
-        } else {
-            0.0
-        },
-    }
-}
-
-/// The API's occupancy JSON of a grid.
-pub fn occupancy_response(session_id: &str, grid: &OccupancyGrid) -> OccupancyGridResponse {
-    let ros = grid.to_ros_occupancy();
-    OccupancyGridResponse {
-        session_id: session_id.to_string(),
-        frame_id: "map".to_string(),
-        width: ros.width as u32,
-        height: ros.height as u32,
-        resolution: ros.resolution_m,
-        origin: Pose2Info {
-            x: ros.origin.x,
-            y: ros.origin.y,
-            theta: ros.origin.heading_rad,
-        },
-        data: ros.data,
-    }
-}
-
-/// The API's trajectory of mapper trajectory points.
-pub fn trajectory_response(session_id: &str, points: &[TrajectoryPoint]) -> TrajectoryResponse {
-    TrajectoryResponse {
-        session_id: session_id.to_string(),
-        points: points
-            .iter()
-            .map(|p| TrajectoryPointInfo {
-                t: p.stamp_ns as f64 * 1e-9,
-                x: p.pose.x,
-                y: p.pose.y,
-                theta: p.pose.heading_rad,
-            })
-            .collect(),
-    }
 }
 
 /// What the HTTP side reads of a running session.

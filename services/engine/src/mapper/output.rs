@@ -3,6 +3,7 @@
 use crate::sketch::SketchPose;
 use serde::{Deserialize, Serialize};
 use sketchslam_types::Pose2;
+use sketchslam_types::trajectory_csv::{self, NumberFormat, StampedPose};
 
 /// The current pose estimate.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -22,6 +23,16 @@ pub struct TrajectoryPoint {
     pub stamp_ns: u64,
     /// Pose in the map frame.
     pub pose: Pose2,
+}
+
+impl TrajectoryPoint {
+    /// The point as a CSV row: its stamp in seconds.
+    pub fn stamped(&self) -> StampedPose {
+        StampedPose {
+            t_s: self.stamp_ns as f64 * 1e-9,
+            pose: self.pose,
+        }
+    }
 }
 
 /// How well the session is doing.
@@ -46,18 +57,9 @@ pub struct Health {
     pub initialized: bool,
 }
 
-/// Writes a trajectory as `trajectory.csv` text: header `t,x,y,theta`, seconds, meters,
-/// radians.
+/// Writes a trajectory as `trajectory.csv` text with the one codec
+/// ([`sketchslam_types::trajectory_csv`]): header `t,x,y,theta`, seconds, meters, radians.
 pub fn trajectory_csv(trajectory: &[TrajectoryPoint]) -> String {
-    let mut out = String::from("t,x,y,theta\n");
-    for p in trajectory {
-        out.push_str(&format!(
-            "{:.9},{:.6},{:.6},{:.6}\n",
-            p.stamp_ns as f64 * 1e-9,
-            p.pose.x,
-            p.pose.y,
-            p.pose.heading_rad
-        ));
-    }
-    out
+    let rows: Vec<StampedPose> = trajectory.iter().map(|p| p.stamped()).collect();
+    trajectory_csv::write(&rows, NumberFormat::Fixed)
 }
