@@ -2,7 +2,7 @@
 //! [`Backend`], the OpenAPI document and a typed client.
 //!
 //! The crate knows nothing of the mapping engine: the service runtime implements
-//! [`Backend`] and serves [`router`]; tests can do the same with an in-memory fake.
+//! [`Backend`] and serves [`router()`]; tests can do the same with an in-memory fake.
 //!
 //! ```no_run
 //! # async fn demo() -> Result<(), sketchslam_api::ClientError> {

@@ -162,7 +162,7 @@ fn run(args: RunArgs, replay: bool) -> Result<()> {
     let keep_truth = args.truth_out.is_some();
     let events = steps
         .inspect(|step| {
-            // truth.csv holds one row per scan (DESIGN.md).
+            // truth.csv holds one row per scan (docs/architecture.md, "Files").
             if keep_truth && matches!(step.event, SensorEvent::Scan(_)) {
                 truth.push(StampedPose {
                     t_s: step.t_s(),

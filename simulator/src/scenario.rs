@@ -1,5 +1,6 @@
-//! Scenario folders: `scenario.toml` (see DESIGN.md, "Scenario files"), the truth world
-//! image and the sketches, loaded and checked into a [`Scenario`].
+//! Scenario folders: `scenario.toml` (see docs/architecture.md, "Files, and how a run is
+//! scored"), the truth world image and the sketches, loaded and checked into a
+//! [`Scenario`].
 //!
 //! This is the simulator's input: [`crate::simulation::Simulation`] runs a scenario, the
 //! renderer draws one, and the multi-process tests hand the sketches to the service. Files

@@ -148,7 +148,7 @@ pub fn score_dataset_artifacts(
 }
 
 /// The map (dark), the reference trajectory (green) and the aligned estimate (blue) on
-/// white, in the reference frame, north up, at [`OVERLAY_RESOLUTION_M`].
+/// white, in the reference frame, north up, at `OVERLAY_RESOLUTION_M`.
 pub fn draw_overlay(
     occupied_map_frame: &[Point2],
     estimate: &[StampedPose],

@@ -1,5 +1,6 @@
 //! Evaluation and multi-process test support for sketchslam: the accuracy metrics of
-//! DESIGN.md, the runs `evaluate` performs, and helpers that launch the real binaries.
+//! docs/architecture.md, the runs `evaluate` performs, and helpers that launch the real
+//! binaries.
 
 pub mod dataset_run;
 pub mod metrics;

@@ -1,4 +1,4 @@
-//! Accuracy of a run, as DESIGN.md defines it ("How accuracy is measured").
+//! Accuracy of a run, as docs/architecture.md defines it ("Files, and how a run is scored").
 //!
 //! 1. The estimated trajectory is aligned to the truth by the best rigid motion in the
 //!    plane (Umeyama 1991, "Least-squares estimation of transformation parameters between

@@ -1,10 +1,11 @@
 //! The intake thread of a session: the one place a robot's iceoryx2 subscriber lives.
 //!
-//! iceoryx2 ports are not `Send` (transport fact 4 in docs/architecture.md), so the [`RobotSubscriber`] is created, used
-//! and dropped on this thread; what leaves it are owned [`SensorEvent`]s and counters over a
-//! bounded std channel to the session's mapper thread. The channel being bounded carries
-//! backpressure back to a lock-step publisher: a slow mapper makes the intake wait, the
-//! subscriber's buffer fills, and the publisher waits too — no scan is lost.
+//! iceoryx2 ports are not `Send` (docs/architecture.md, transport fact 4), so the
+//! [`RobotSubscriber`] is created, used and dropped on this thread; what leaves it are owned
+//! [`SensorEvent`]s and counters over a bounded std channel to the session's mapper thread.
+//! The channel being bounded carries backpressure back to a lock-step publisher: a slow
+//! mapper makes the intake wait, the subscriber's buffer fills, and the publisher waits too —
+//! no scan is lost.
 //!
 //! A publisher may start before or after the session, stop, be killed and come back: the
 //! subscriber outlives it, and sequence gaps are reported as lost samples.

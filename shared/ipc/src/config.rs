@@ -47,8 +47,8 @@ impl IpcConfig {
     }
 
     /// A node under this configuration: `SignalHandlingMode::Disabled` (the owning process
-    /// handles signals itself, e.g. with tokio; transport fact 3 in docs/architecture.md), and the resources of dead nodes
-    /// (a killed earlier run) are cleaned before it is returned.
+    /// handles signals itself, e.g. with tokio; transport fact 3), and the resources of dead
+    /// nodes (a killed earlier run) are cleaned before it is returned.
     pub fn create_node(&self, node_name: &str) -> Result<Node<ipc::Service>, IpcError> {
         let config = self.iceoryx_config()?;
         let name = NodeName::new(node_name).map_err(|e| setup_err("name", node_name, e))?;

@@ -3,8 +3,9 @@
 //! built, so that both sides always open them with identical settings.
 //!
 //! Per robot `R` under prefix `P` there are three iceoryx2 services:
-//! - `P/R/scan`: publish-subscribe of `[f32]` ranges with a [`ScanHeader`](sketchslam_types::ScanHeader) user header; the
-//!   publisher grows its slices by powers of two, so any beam count gets through;
+//! - `P/R/scan`: publish-subscribe of `[f32]` ranges with a
+//!   [`ScanHeader`](sketchslam_types::ScanHeader) user header; the publisher grows its slices
+//!   by powers of two, so any beam count gets through;
 //! - `P/R/odom`: publish-subscribe of [`Odometry`](sketchslam_types::Odometry);
 //! - `P/R/events`: an event service; publishers notify it after every sample (so the
 //!   subscriber sleeps in a listener instead of spinning), and it carries the lock-step
@@ -13,6 +14,9 @@
 //! The iceoryx2 `global.prefix` is derived from `P` as well (see [`IpcConfig`]): distinct
 //! prefixes share nothing, not even `/dev/shm` segments (a distinct root path
 //! alone does not isolate; see `docs/architecture.md`).
+//!
+//! "Transport fact N" below and in the files cites the numbered list of what the code relies
+//! on about iceoryx2, in `docs/architecture.md` ("Transport").
 //!
 //! # Delivery modes
 //!
@@ -27,18 +31,20 @@
 //!   the one lost; with a 32-scan buffer a slow subscriber lags at most 1.6 s at 20 Hz.
 //! - [`Delivery::LockStep`]: the publisher waits while a subscriber's buffer is full. While it
 //!   waits it checks every [`DEAD_CHECK_PERIOD`] whether a node died (a SIGKILLed subscriber
-//!   never frees its buffer, transport fact 2 in docs/architecture.md); if so, or when `backpressure_timeout` passes, the
+//!   never frees its buffer, transport fact 2); if so, or when `backpressure_timeout` passes, the
 //!   sample is discarded for that subscriber (counted) and dead nodes are cleaned up, so the
 //!   next send does not wait again. Before the first sample the publisher waits for the
-//!   subscriber to be connected ([`RobotPublisher::wait_for_subscribers`], transport fact 1 in docs/architecture.md).
+//!   subscriber to be connected ([`RobotPublisher::wait_for_subscribers`], transport
+//!   fact 1).
 //!
 //! The subscriber ([`RobotSubscriber`]) does not need to know the mode.
 //!
 //! # Threads
 //!
-//! iceoryx2 `ipc::Service` ports are neither `Send` nor `Sync` (transport fact 4 in docs/architecture.md): a
+//! iceoryx2 `ipc::Service` ports are neither `Send` nor `Sync` (transport fact 4): a
 //! [`RobotPublisher`] or [`RobotSubscriber`] is created, used and dropped on one thread.
-//! Hand the owned [`SensorEvent`](sketchslam_types::SensorEvent)s to other threads over channels.
+//! Hand the owned [`SensorEvent`](sketchslam_types::SensorEvent)s to other threads over
+//! channels.
 
 mod checksum;
 mod config;

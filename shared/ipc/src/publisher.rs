@@ -190,9 +190,9 @@ impl RobotPublisher {
 
     /// Waits until at least `min_subscribers` subscribers exist on both topics and one of them
     /// has connected its ports to this publisher, so that no sample sent afterwards is lost
-    /// to the start-up race (transport fact 1 in docs/architecture.md). Returns `false` on timeout.
+    /// to the start-up race (transport fact 1). Returns `false` on timeout.
     ///
-    /// Handshake: the publisher notifies `PUBLISHER_UP` every 50 ms; a [`RobotSubscriber`]
+    /// Handshake: the publisher notifies `PUBLISHER_UP` every 50 ms; a [`RobotSubscriber`](crate::RobotSubscriber)
     /// that sees it (while in `receive_timeout`) connects and answers `SUBSCRIBER_READY`.
     pub fn wait_for_subscribers(
         &mut self,

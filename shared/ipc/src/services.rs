@@ -22,7 +22,7 @@ pub const MAX_PUBLISHERS: usize = 2;
 pub const MAX_SUBSCRIBERS: usize = 8;
 /// A waiting lock-step publisher starts looking for dead nodes after this long.
 pub const DEAD_CHECK_PERIOD: Duration = Duration::from_millis(20);
-/// The default backpressure timeout of [`Delivery::LockStep`]: a live subscriber that does
+/// The default backpressure timeout of [`Delivery::LockStep`](crate::Delivery::LockStep): a live subscriber that does
 /// not take a sample for this long loses it. Generous, because a mapper may legitimately
 /// spend hundreds of milliseconds on a scan; dead subscribers are detected much sooner.
 pub const DEFAULT_BACKPRESSURE_TIMEOUT: Duration = Duration::from_secs(5);

@@ -1,9 +1,10 @@
 //! What a robot driver publishes: LiDAR scans and dead-reckoned odometry.
 //!
-//! Over iceoryx2 a scan is a `ScanHeader` user header over a `[f32]` slice of ranges that
-//! lives in the shared-memory sample itself; `Odometry` is a fixed payload. Both are
-//! `#[repr(C)]` and, with the `zero-copy` feature the transport turns on, `ZeroCopySend`: no pointers, no heap. Inside a process the same data
-//! travels as the owned `Scan`, and a time-ordered stream of both as `SensorEvent`.
+//! Over iceoryx2 a scan is a `ScanHeader` user header over a `[f32]` slice of ranges that lives
+//! in the shared-memory sample itself; `Odometry` is a fixed payload. Both are `#[repr(C)]`
+//! and, with the `zero-copy` feature the transport turns on, `ZeroCopySend`: no pointers, no
+//! heap. Inside a process the same data travels as the owned `Scan`, and a time-ordered stream
+//! of both as `SensorEvent`.
 //!
 //! Conventions follow ROS `sensor_msgs/LaserScan`: beam `i` points at
 //! `angle_min_rad + i·angle_increment_rad` in the robot frame (counter-clockwise from the

@@ -6,16 +6,15 @@
 //! through a building) the map's far ends no longer agree. The drawing bounds the
 //! heading; the position needs a second view of the same place.
 //!
-//! Every `keyframe_distance_m` of travel (or turn of `keyframe_angle_rad`) the front end's
-//! pose becomes a node of a [`PoseGraph`] with a sequential edge from the previous
-//! keyframe (their relative pose as the front end saw it). Each new keyframe is then
-//! matched against the earlier keyframes it could be revisiting — near its estimate, but
-//! at least `min_travel_m` of route behind — by correlative search
-//! ([`crate::scan_matching::correlative`], the window covers the drift) and point-to-line ICP against a
-//! local map of the candidate and its neighbours. A match that scores well enough adds a
-//! loop edge with a Huber kernel (a wrong match in a look-alike corridor is down-weighted,
-//! not obeyed), and the graph is optimized. The mapper then re-anchors its trajectory and
-//! rebuilds its grid on the optimized keyframes.
+//! Every `keyframe_distance_m` of travel (or turn of `keyframe_angle_rad`) the front end's pose
+//! becomes a node of a [`PoseGraph`] with a sequential edge from the previous keyframe (their
+//! relative pose as the front end saw it). Each new keyframe is then matched against the
+//! earlier keyframes it could be revisiting — near its estimate, but at least `min_travel_m` of
+//! route behind — by correlative search ([`crate::scan_matching::correlative`], the window
+//! covers the drift) and point-to-line ICP against a local map of the candidate and its
+//! neighbours. A match that scores well enough adds a loop edge with a Huber kernel (a wrong
+//! match in a look-alike corridor is down-weighted, not obeyed), and the graph is optimized.
+//! The mapper then re-anchors its trajectory and rebuilds its grid on the optimized keyframes.
 //!
 //! Pure: values in, values out.
 

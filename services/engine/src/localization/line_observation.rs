@@ -2,9 +2,9 @@
 //! really observes from the pose MCL estimated on the drawing.
 //!
 //! Where in the pipeline: step 3 of every scan of a `sketch` session, after MCL
-//! ([`crate::localization::mcl`]). The observed lines are matched with the scan's RANSAC lines (eq. 5,
-//! heading correction) and used by point-to-line ICP (eq. 6); the set observed in the last
-//! good frame is what recovery ([`crate::localization::recovery`]) restarts from.
+//! ([`crate::localization::mcl`]). The observed lines are matched with the scan's RANSAC lines
+//! (eq. 5, heading correction) and used by point-to-line ICP (eq. 6); the set observed in the
+//! last good frame is what recovery ([`crate::localization::recovery`]) restarts from.
 //!
 //! # Eq. (4)
 //! From the estimate `x = (u, v, θ, s)`, every beam `i` is ray-traced on the sketch: it hits

@@ -336,8 +336,8 @@ impl SketchMcl {
     }
 
     /// Replaces the cloud with one built by a recovery (section 3.2, see
-    /// [`crate::localization::recovery::recover`]) and counts the recovery. Returns false (and changes
-    /// nothing) when no particle is valid.
+    /// [`crate::localization::recovery::recover`]) and counts the recovery. Returns false (and
+    /// changes nothing) when no particle is valid.
     pub fn restart_with(&mut self, particles: Vec<Particle>) -> bool {
         let applied = self.set_particles(particles);
         if applied {

@@ -13,8 +13,8 @@
 //!                                         scan fused into the grid
 //! ```
 //!
-//! - [`front_end`]: `odometry` (dead reckoning), `icp` (the paper's frame-to-frame
-//!   "conventional ICP-SLAM") or `sketch` ([`sketch_front_end`]: MCL on the drawing with
+//! - `front_end`: `odometry` (dead reckoning), `icp` (the paper's frame-to-frame
+//!   "conventional ICP-SLAM") or `sketch` (`sketch_front_end`: MCL on the drawing with
 //!   scale, eq. 1–3; the sketch lines really observed, eq. 4; the heading from matched
 //!   lines, eq. 5; the position by point-to-line ICP, eq. 6);
 //! - [`crate::back_end`]: for `sketch` sessions, every keyframe joins an SE(2) pose graph

@@ -2,10 +2,10 @@
 //! heading held from eq. 5) and the `icp` baseline (the paper's "conventional ICP-SLAM":
 //! frame-to-frame or scan-to-map ICP seeded by odometry, full SE(2)).
 //!
-//! Reference: points `q_j` (the previous frame's returns, or cells of the map built so far,
-//! see [`OccupancyGrid::occupied_points_near`]) in a k-d tree (kiddo `ImmutableKdTree`), each with a normal
-//! `n_j` from PCA over its `normal_neighbours` nearest neighbours (the eigenvector of the
-//! smallest eigenvalue of their covariance; neighbourhoods that are not line-like, with
+//! Reference: points `q_j` (the previous frame's returns, or cells of the map built so far, see
+//! [`OccupancyGrid::occupied_points_near`]) in a k-d tree (kiddo `ImmutableKdTree`), each with
+//! a normal `n_j` from PCA over its `normal_neighbours` nearest neighbours (the eigenvector of
+//! the smallest eigenvalue of their covariance; neighbourhoods that are not line-like, with
 //! `λ_min / λ_max > max_normal_eigen_ratio`, get no normal and are never matched).
 //!
 //! Alignment of source points `p_i` (robot frame) to find the pose `x = (t, θ)` of the robot

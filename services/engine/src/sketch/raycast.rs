@@ -1,9 +1,10 @@
 //! Ray tracing on the drawing: the pseudo-ranges `l_i` of MCL on the sketch (eq. 3) and the
 //! line each beam hits (eq. 4).
 //!
-//! Where in the pipeline: built once per sketch (after line extraction), then queried for
-//! every particle × used beam × scan by [`crate::localization::mcl`], for every beam of the estimate by
-//! [`crate::localization::line_observation`], and over a grid of candidate points by [`crate::localization::recovery`].
+//! Where in the pipeline: built once per sketch (after line extraction), then queried for every
+//! particle × used beam × scan by [`crate::localization::mcl`], for every beam of the estimate
+//! by [`crate::localization::line_observation`], and over a grid of candidate points by
+//! [`crate::localization::recovery`].
 //!
 //! # Construction — `O(W·H + Σ line lengths)`
 //! 1. The sketch's **lines** (not the raw stroke mask: the drawing's scribbles, text and

@@ -1,6 +1,7 @@
 //! Support shared by `bench-fleet` and `bench-http` (included with `#[path]`, not a binary):
-//! starting the real `slam-service` (through `ServiceProcess`), the real-time simulator, sessions on `paper-env1`, the
-//! service's CPU time from `/proc`, and the scan processing time histogram from `/metrics`.
+//! starting the real `slam-service` (through `ServiceProcess`), the real-time simulator,
+//! sessions on `paper-env1`, the service's CPU time from `/proc`, and the scan processing time
+//! histogram from `/metrics`.
 
 #![allow(dead_code)]
 
