@@ -11,3 +11,4 @@ pub mod relations;
 pub mod run;
 pub mod run_loop;
 pub mod service_process;
+pub mod session_request;

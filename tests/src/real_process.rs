@@ -12,8 +12,8 @@ use crate::processes::{ChildGuard, binary, unique_prefix};
 use crate::run::{RunResult, Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
 use crate::run_loop::RunFigures;
 use crate::service_process::{ServiceOptions, ServiceProcess};
+use crate::session_request::{baseline_session, sketch_session};
 use anyhow::{Context, Result, bail};
-use sketchslam_api::types::{CreateSessionRequest, MappingMethod, SketchStart};
 use sketchslam_engine::mapper::Method;
 use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
@@ -127,28 +127,10 @@ pub fn map_through_processes(
             let bytes = std::fs::read(&cfg.image)
                 .with_context(|| format!("reading {}", cfg.image.display()))?;
             let info = runtime.block_on(client.upload_sketch(bytes, Some(&cfg.name)))?;
-            CreateSessionRequest {
-                robot_id: ROBOT_ID.into(),
-                method: MappingMethod::Sketch,
-                sketch_id: Some(info.id),
-                start: Some(SketchStart {
-                    u: cfg.start_u_px,
-                    v: cfg.start_v_px,
-                    heading_deg: cfg.start_heading_rad.to_degrees(),
-                }),
-                meters_per_pixel: Some(cfg.meters_per_pixel),
-                seed: Some(source.seed),
-            }
+            sketch_session(ROBOT_ID, &info.id, cfg, Some(source.seed))
         }
         (Method::Sketch, None) => bail!("the sketch method needs a sketch"),
-        (m, _) => CreateSessionRequest {
-            robot_id: ROBOT_ID.into(),
-            method: api_method(m),
-            sketch_id: None,
-            start: None,
-            meters_per_pixel: None,
-            seed: Some(source.seed),
-        },
+        (m, _) => baseline_session(ROBOT_ID, api_method(m), Some(source.seed)),
     };
     let session = runtime.block_on(client.create_session(&request))?;
 

@@ -13,12 +13,13 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, ensure};
 use common::{TempDir, dump_log, start_service};
-use sketchslam_api::{CreateSessionRequest, MappingMethod, SessionState, SketchStart};
+use sketchslam_api::SessionState;
 use sketchslam_simulator::scenario::Scenario;
 use sketchslam_simulator::world::World;
 use sketchslam_tests::metrics::WallGrid;
 use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario, unique_prefix};
 use sketchslam_tests::run::{Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
+use sketchslam_tests::session_request::sketch_session;
 
 /// Scans the simulator publishes: about 30 s of driving, the first corridor and a turn.
 const SCANS: u64 = 600;
@@ -58,18 +59,7 @@ async fn map_paper_env1(dir: &TempDir) -> Result<()> {
         sketch.lines.len()
     );
     let session = client
-        .create_session(&CreateSessionRequest {
-            robot_id: "r1".into(),
-            method: MappingMethod::Sketch,
-            sketch_id: Some(sketch.id.clone()),
-            start: Some(SketchStart {
-                u: sketch_cfg.start_u_px,
-                v: sketch_cfg.start_v_px,
-                heading_deg: sketch_cfg.start_heading_rad.to_degrees(),
-            }),
-            meters_per_pixel: Some(sketch_cfg.meters_per_pixel),
-            seed: None,
-        })
+        .create_session(&sketch_session("r1", &sketch.id, &sketch_cfg, None))
         .await?;
     ensure!(session.state == SessionState::WaitingForData);
     let mut events = client.events(&session.id).await?;

@@ -12,13 +12,12 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
-use sketchslam_api::{
-    CreateSessionRequest, MappingMethod, SessionInfo, SessionState, SketchStart, SketchslamClient,
-};
+use sketchslam_api::{SessionInfo, SessionState, SketchslamClient};
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
 use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario, unique_prefix};
 pub use sketchslam_tests::service_process::dump_log;
 use sketchslam_tests::service_process::{ServiceOptions, ServiceProcess};
+use sketchslam_tests::session_request::sketch_session;
 
 /// A folder removed on drop.
 pub struct TempDir(pub PathBuf);
@@ -81,18 +80,7 @@ pub async fn start_sketch_a_session(
         .upload_sketch(std::fs::read(&cfg.image)?, Some("A"))
         .await?;
     let session = client
-        .create_session(&CreateSessionRequest {
-            robot_id: robot.into(),
-            method: MappingMethod::Sketch,
-            sketch_id: Some(sketch.id.clone()),
-            start: Some(SketchStart {
-                u: cfg.start_u_px,
-                v: cfg.start_v_px,
-                heading_deg: cfg.start_heading_rad.to_degrees(),
-            }),
-            meters_per_pixel: Some(cfg.meters_per_pixel),
-            seed: None,
-        })
+        .create_session(&sketch_session(robot, &sketch.id, &cfg, None))
         .await?;
     Ok((sketch.id, session))
 }

@@ -6,14 +6,13 @@
 #![allow(dead_code)]
 
 use anyhow::{Context, Result, bail};
-use sketchslam_api::{
-    CreateSessionRequest, MappingMethod, SessionInfo, SketchStart, SketchslamClient,
-};
+use sketchslam_api::{MappingMethod, SessionInfo, SketchslamClient};
 use sketchslam_engine::mapper::Method;
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
 use sketchslam_slam::method::api_method;
 use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario};
 use sketchslam_tests::service_process::{ServiceOptions, ServiceProcess};
+use sketchslam_tests::session_request::{baseline_session, sketch_session};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -54,25 +53,12 @@ pub async fn create_session(
     sketch_id: Option<&str>,
     cfg: &SketchConfig,
 ) -> Result<SessionInfo> {
-    let sketch = method == MappingMethod::Sketch;
-    Ok(client
-        .create_session(&CreateSessionRequest {
-            robot_id: robot.into(),
-            method,
-            sketch_id: if sketch {
-                sketch_id.map(str::to_string)
-            } else {
-                None
-            },
-            start: sketch.then(|| SketchStart {
-                u: cfg.start_u_px,
-                v: cfg.start_v_px,
-                heading_deg: cfg.start_heading_rad.to_degrees(),
-            }),
-            meters_per_pixel: sketch.then_some(cfg.meters_per_pixel),
-            seed: None,
-        })
-        .await?)
+    let request = match (method, sketch_id) {
+        (MappingMethod::Sketch, Some(id)) => sketch_session(robot, id, cfg, None),
+        (MappingMethod::Sketch, None) => bail!("a sketch session needs an uploaded sketch"),
+        (m, _) => baseline_session(robot, m, None),
+    };
+    Ok(client.create_session(&request).await?)
 }
 
 /// Launches the simulator in real time (`--rate`) for `robot`, writing its truth rows (one
