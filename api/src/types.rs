@@ -102,6 +102,9 @@ pub enum MappingMethod {
     /// Baseline: frame-to-frame point-to-line ICP seeded by odometry, without the sketch
     /// (the paper's "conventional ICP-SLAM").
     Icp,
+    /// Baseline: the sketch method's engine without the drawing (keyframe ICP, loop
+    /// closure, pose graph), the class of LiDAR SLAM a user would otherwise run.
+    Graph,
     /// Baseline: the map from dead reckoning alone.
     Odometry,
 }
@@ -112,6 +115,7 @@ impl MappingMethod {
         match self {
             Self::Sketch => "sketch",
             Self::Icp => "icp",
+            Self::Graph => "graph",
             Self::Odometry => "odometry",
         }
     }
@@ -209,7 +213,7 @@ impl CreateSessionRequest {
                     ));
                 }
             }
-            MappingMethod::Icp | MappingMethod::Odometry => {
+            MappingMethod::Icp | MappingMethod::Graph | MappingMethod::Odometry => {
                 if self.sketch_id.is_some()
                     || self.start.is_some()
                     || self.meters_per_pixel.is_some()

@@ -433,6 +433,12 @@ async fn session_request_rejections_name_the_problem_and_change_nothing() {
             "sketch",
         ),
         (
+            json!({"robot_id": "r1", "method": "graph", "sketch_id": sketch}),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "unexpected_field",
+            "sketch",
+        ),
+        (
             json!({"method": "icp"}),
             StatusCode::UNPROCESSABLE_ENTITY,
             "invalid_field",
@@ -495,6 +501,15 @@ async fn baseline_sessions_need_no_sketch_and_a_robot_maps_once() {
     )
     .await;
     assert_eq!(again.status, StatusCode::CREATED);
+    // The loop-closing baseline without a drawing is a session like the others.
+    let graph = post_json(
+        &h.app,
+        "/v1/sessions",
+        &json!({"robot_id": "r3", "method": "graph"}),
+    )
+    .await;
+    assert_eq!(graph.status, StatusCode::CREATED, "{}", graph.text());
+    assert_eq!(graph.json()["method"], "graph");
 }
 
 #[tokio::test]

@@ -32,7 +32,7 @@ fn main() -> anyhow::Result<()> {
         MapperConfig {
             seed: scenario.seed,
             sketch_heading_gain: gain,
-            sketch_icp_reference: reference,
+            keyframe_icp_reference: reference,
             ..Default::default()
         },
     )?;

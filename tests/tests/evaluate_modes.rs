@@ -11,30 +11,26 @@ use sketchslam_tests::run::run_in_process;
 /// Long enough for MCL, line matching and ICP to have shaped the map.
 const SCANS: u64 = 400;
 
-#[test]
-fn in_process_and_real_processes_build_the_same_map() -> anyhow::Result<()> {
+/// Long enough for the loop-closing baseline to close loops (9 by scan 2 600), so the
+/// service rebuilds its map after corrections, on its mapping thread, before serving it.
+const GRAPH_SCANS: u64 = 2600;
+
+/// Maps the first `scans` scans of paper-env1 with `method` in both modes; fails unless
+/// the maps are the same bytes and score the same. Returns the in-process result.
+fn both_modes_agree(
+    method: Method,
+    sketch_name: Option<&str>,
+    scans: u64,
+) -> anyhow::Result<sketchslam_tests::run::RunResult> {
     let scenario = Scenario::load(&bundled_scenario("paper-env1"))?;
-    let sketch = scenario.sketch("A").expect("sketch A is bundled");
-    let out = std::env::temp_dir().join(format!("sketchslam-modes-{}", std::process::id()));
+    let sketch = sketch_name.map(|n| scenario.sketch(n).expect("the sketch is bundled"));
+    let out =
+        std::env::temp_dir().join(format!("sketchslam-modes-{method}-{}", std::process::id()));
     let (a_dir, b_dir) = (out.join("in-process"), out.join("processes"));
-    let a = run_in_process(
-        &scenario,
-        Method::Sketch,
-        Some(sketch),
-        &a_dir,
-        Some(SCANS),
-        |_, _| {},
-    )?;
-    let b = run_real_process(
-        &scenario,
-        Method::Sketch,
-        Some(sketch),
-        &b_dir,
-        Some(SCANS),
-        |_, _| {},
-    )?;
-    assert_eq!(a.scans, SCANS);
-    assert_eq!(b.scans, SCANS);
+    let a = run_in_process(&scenario, method, sketch, &a_dir, Some(scans), |_, _| {})?;
+    let b = run_real_process(&scenario, method, sketch, &b_dir, Some(scans), |_, _| {})?;
+    assert_eq!(a.scans, scans);
+    assert_eq!(b.scans, scans);
     let map_a = std::fs::read(a_dir.join("map.pgm"))?;
     let map_b = std::fs::read(b_dir.join("map.pgm"))?;
     assert!(
@@ -49,14 +45,32 @@ fn in_process_and_real_processes_build_the_same_map() -> anyhow::Result<()> {
     assert_eq!(a.map_error_m, b.map_error_m);
     // The service reports the loops its session closed, as the in-process mapper counts them.
     assert_eq!(a.loop_closures, b.loop_closures);
+    eprintln!(
+        "{method}: map error {:.3} m, completeness {:.3}, {} loops closed",
+        a.map_error_m, a.completeness, a.loop_closures
+    );
+    let _ = std::fs::remove_dir_all(&out);
+    Ok(a)
+}
+
+#[test]
+fn in_process_and_real_processes_build_the_same_map() -> anyhow::Result<()> {
+    let a = both_modes_agree(Method::Sketch, Some("A"), SCANS)?;
     // Generous bounds on the first 20 m of the route (completeness counts the walls the
     // sensor saw in those scans only).
-    eprintln!(
-        "map error {:.3} m, completeness {:.3}, {} loops closed",
-        a.map_error_m, a.completeness, a.loop_closures
+    assert!(a.map_error_m <= 0.25, "map error {}", a.map_error_m);
+    assert!(a.completeness >= 0.8, "completeness {}", a.completeness);
+    Ok(())
+}
+
+#[test]
+fn the_graph_baseline_builds_the_same_map_over_http_and_in_process() -> anyhow::Result<()> {
+    let a = both_modes_agree(Method::Graph, None, GRAPH_SCANS)?;
+    assert!(
+        a.loop_closures >= 1,
+        "no loop closed in {GRAPH_SCANS} scans"
     );
     assert!(a.map_error_m <= 0.25, "map error {}", a.map_error_m);
     assert!(a.completeness >= 0.8, "completeness {}", a.completeness);
-    let _ = std::fs::remove_dir_all(&out);
     Ok(())
 }

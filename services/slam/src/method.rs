@@ -15,6 +15,7 @@ pub fn engine_method(method: MappingMethod) -> Method {
     match method {
         MappingMethod::Sketch => Method::Sketch,
         MappingMethod::Icp => Method::Icp,
+        MappingMethod::Graph => Method::Graph,
         MappingMethod::Odometry => Method::Odometry,
     }
 }
@@ -24,6 +25,7 @@ pub fn api_method(method: Method) -> MappingMethod {
     match method {
         Method::Odometry => MappingMethod::Odometry,
         Method::Icp => MappingMethod::Icp,
+        Method::Graph => MappingMethod::Graph,
         Method::Sketch => MappingMethod::Sketch,
     }
 }

@@ -204,7 +204,7 @@ impl Registry {
                     },
                 })
             }
-            MappingMethod::Icp | MappingMethod::Odometry => None,
+            MappingMethod::Icp | MappingMethod::Graph | MappingMethod::Odometry => None,
         };
         let mut mapper_config = self.config.mapper.clone();
         if let Some(seed) = request.seed {

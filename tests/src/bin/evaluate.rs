@@ -3,7 +3,7 @@
 //! By default every run launches the real `slam-service` and `simulator` processes;
 //! `--in-process` runs both inside this one.
 //!
-//! `evaluate SCENARIO_DIR... [--method odometry,icp,sketch] [--sketch NAME] [--out DIR]
+//! `evaluate SCENARIO_DIR... [--method odometry,icp,graph,sketch] [--sketch NAME] [--out DIR]
 //! [--json FILE] [--in-process]`: every scenario × method × sketch is one run whose
 //! artifacts go to `OUT/SCENARIO/RUN/`; the metrics are printed as a table and written as
 //! JSON.
@@ -32,7 +32,11 @@ struct Args {
     #[arg(required = true)]
     scenarios: Vec<PathBuf>,
     /// Methods to run, comma-separated.
-    #[arg(long, value_delimiter = ',', default_value = "odometry,icp,sketch")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "odometry,icp,graph,sketch"
+    )]
     method: Vec<String>,
     /// Only this sketch (by name) for the sketch method; default: every sketch.
     #[arg(long)]

@@ -34,10 +34,10 @@ pub struct MapperConfig {
     pub grid: GridConfig,
     /// MCL on the sketch.
     pub mcl: MclConfig,
-    /// ICP (both the baseline and the sketch method's translation step).
+    /// ICP (the `icp` baseline and the keyframe ICP of `sketch` and `graph`).
     pub icp: IcpConfig,
-    /// Reference of the sketch method's ICP.
-    pub sketch_icp_reference: IcpReference,
+    /// Reference of the keyframe ICP of the `sketch` and `graph` methods.
+    pub keyframe_icp_reference: IcpReference,
     /// Share of the eq. (5) heading correction applied per scan, 0..1. 1 is the paper:
     /// the heading is replaced and ICP solves the translation only. Below 1 ICP solves
     /// the full pose against the map and the sketch's line directions pull its heading by
@@ -48,8 +48,9 @@ pub struct MapperConfig {
     /// drawing's own angular error and ignored, radians (a person draws a wall's direction
     /// within a few degrees).
     pub sketch_heading_deadband_rad: f64,
-    /// Loop closure of the `sketch` method; `None` keeps the paper's front end alone.
-    /// The baselines never close loops (`icp` is the paper's frame-to-frame ICP-SLAM).
+    /// Loop closure of the `graph` and `sketch` methods; `None` keeps their front ends
+    /// alone. `odometry` and `icp` never close loops (`icp` is the paper's frame-to-frame
+    /// ICP-SLAM).
     pub loop_closure: Option<LoopClosureConfig>,
     /// Seed of every random draw of the session.
     pub seed: u64,
@@ -61,7 +62,7 @@ impl Default for MapperConfig {
             grid: GridConfig::default(),
             mcl: MclConfig::default(),
             icp: IcpConfig::default(),
-            sketch_icp_reference: IcpReference::PreviousScan,
+            keyframe_icp_reference: IcpReference::PreviousScan,
             sketch_heading_gain: 0.05,
             sketch_heading_deadband_rad: 4f64.to_radians(),
             loop_closure: Some(LoopClosureConfig::default()),

@@ -8,9 +8,12 @@
 //! - `odometry`: the prediction itself;
 //! - `icp`: frame-to-frame point-to-line ICP seeded by the odometry increment (the paper's
 //!   "conventional ICP-SLAM");
+//! - `graph`: keyframe ICP ([`super::keyframe_icp`]), the `sketch` front end without the
+//!   drawing;
 //! - `sketch`: the paper's method ([`super::sketch_front_end`]).
 
 use super::front_end_io::{FrontEndInput, FrontEndOutput};
+use super::keyframe_icp::KeyframeIcp;
 use super::sketch_front_end::SketchFrontEnd;
 use crate::scan_matching::icp::{Icp, IcpConfig, IcpMode};
 use crate::sketch::SketchPose;
@@ -25,6 +28,8 @@ pub(super) enum FrontEnd {
         config: IcpConfig,
         previous_points: Option<Vec<Point2>>,
     },
+    /// Keyframe ICP, no drawing.
+    Graph(KeyframeIcp),
     /// The paper's method on a drawing.
     Sketch(Box<SketchFrontEnd>),
 }
@@ -54,6 +59,11 @@ impl FrontEnd {
                 *previous_points = Some(points.clone());
                 FrontEndOutput::pose(pose)
             }
+            FrontEnd::Graph(matcher) => {
+                let pose = matcher.align(input, input.predicted, IcpMode::Full);
+                matcher.done(&input.frame.points);
+                FrontEndOutput::pose(pose)
+            }
             FrontEnd::Sketch(front_end) => front_end.track(input),
         }
     }
@@ -61,6 +71,7 @@ impl FrontEnd {
     /// True when [`FrontEnd::track`] reads the grid (it must then be current).
     pub(super) fn reads_map(&self) -> bool {
         match self {
+            FrontEnd::Graph(matcher) => matcher.reads_map(),
             FrontEnd::Sketch(front_end) => front_end.reads_map(),
             _ => false,
         }

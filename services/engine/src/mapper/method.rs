@@ -13,19 +13,24 @@ pub enum Method {
     Odometry,
     /// Frame-to-frame ICP seeded by odometry, no sketch.
     Icp,
+    /// The `sketch` method's engine without the drawing: keyframe ICP, correlative loop
+    /// closure and a pose graph (the slam_toolbox / Cartographer class of LiDAR SLAM), so
+    /// that `sketch` against `graph` measures what the drawing adds.
+    Graph,
     /// The paper's method with a hand-drawn map.
     Sketch,
 }
 
 impl Method {
     /// Every method, baselines first.
-    pub const ALL: [Method; 3] = [Method::Odometry, Method::Icp, Method::Sketch];
+    pub const ALL: [Method; 4] = [Method::Odometry, Method::Icp, Method::Graph, Method::Sketch];
 
     /// The method's name as used in the API and on the command line.
     pub fn as_str(&self) -> &'static str {
         match self {
             Method::Odometry => "odometry",
             Method::Icp => "icp",
+            Method::Graph => "graph",
             Method::Sketch => "sketch",
         }
     }
@@ -41,14 +46,15 @@ impl FromStr for Method {
     type Err = EngineError;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "odometry" => Ok(Method::Odometry),
-            "icp" => Ok(Method::Icp),
-            "sketch" => Ok(Method::Sketch),
-            other => Err(EngineError::InvalidParameter {
+        Method::ALL
+            .into_iter()
+            .find(|m| m.as_str() == s)
+            .ok_or_else(|| EngineError::InvalidParameter {
                 name: "method",
-                reason: format!("{other:?} is not one of odometry, icp, sketch"),
-            }),
-        }
+                reason: format!(
+                    "{s:?} is not one of {}",
+                    Method::ALL.map(|m| m.as_str()).join(", ")
+                ),
+            })
     }
 }

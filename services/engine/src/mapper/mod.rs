@@ -14,10 +14,11 @@
 //! ```
 //!
 //! - `front_end`: `odometry` (dead reckoning), `icp` (the paper's frame-to-frame
-//!   "conventional ICP-SLAM") or `sketch` (`sketch_front_end`: MCL on the drawing with
+//!   "conventional ICP-SLAM"), `graph` (keyframe ICP: the `sketch` engine without the
+//!   drawing) or `sketch` (`sketch_front_end`: MCL on the drawing with
 //!   scale, eq. 1–3; the sketch lines really observed, eq. 4; the heading from matched
 //!   lines, eq. 5; the position by point-to-line ICP, eq. 6);
-//! - [`crate::back_end`]: for `sketch` sessions, every keyframe joins an SE(2) pose graph
+//! - [`crate::back_end`]: for `graph` and `sketch` sessions, every keyframe joins an SE(2) pose graph
 //!   and loops are closed by correlative scan matching; a correction moves every keyframe.
 //!
 //! Every trajectory pose and every fused scan is held relative to a keyframe, so when the
@@ -37,6 +38,7 @@ mod config;
 mod frame;
 mod front_end;
 mod front_end_io;
+mod keyframe_icp;
 mod method;
 mod output;
 mod sketch_front_end;
@@ -52,6 +54,7 @@ use crate::back_end::heading_prior::WallHeadingPrior;
 use crate::back_end::loop_closure::LoopCloser;
 use crate::mapping::grid::OccupancyGrid;
 use front_end::FrontEnd;
+use keyframe_icp::KeyframeIcp;
 use sketch_front_end::SketchFrontEnd;
 use sketchslam_types::{Odometry, Pose2, Scan, SensorEvent};
 
@@ -63,6 +66,27 @@ const HEADING_PRIOR_SEED_OFFSET: u64 = 0x6865_6164;
 struct BackEnd {
     closer: LoopCloser,
     heading_prior: Option<WallHeadingPrior>,
+}
+
+impl BackEnd {
+    /// The back end `config` asks for (`None` without loop closure); the drawing's wall
+    /// directions become keyframe heading priors when `prior` is given and the loop
+    /// closure's `heading_prior_sigma_rad` is set.
+    fn new(config: &MapperConfig, prior: Option<&SketchPrior>) -> Option<BackEnd> {
+        let closure = config.loop_closure.clone()?;
+        let heading_prior = prior
+            .filter(|_| closure.heading_prior_sigma_rad.is_some())
+            .map(|p| {
+                WallHeadingPrior::new(
+                    &p.sketch.lines,
+                    config.seed.wrapping_add(HEADING_PRIOR_SEED_OFFSET),
+                )
+            });
+        Some(BackEnd {
+            closer: LoopCloser::new(closure),
+            heading_prior,
+        })
+    }
 }
 
 /// One session's mapping state.
@@ -120,24 +144,18 @@ impl Mapper {
                 Pose2::IDENTITY,
                 None,
             ),
+            Method::Graph => (
+                FrontEnd::Graph(KeyframeIcp::new(&config)),
+                Pose2::IDENTITY,
+                BackEnd::new(&config, None),
+            ),
             Method::Sketch => {
                 let prior = prior.ok_or(EngineError::InvalidParameter {
                     name: "sketch",
                     reason: "the sketch method needs a sketch and a start on it".into(),
                 })?;
                 let heading = prior.start.heading_rad;
-                let back_end = config.loop_closure.clone().map(|c| {
-                    let heading_prior = c.heading_prior_sigma_rad.map(|_| {
-                        WallHeadingPrior::new(
-                            &prior.sketch.lines,
-                            config.seed.wrapping_add(HEADING_PRIOR_SEED_OFFSET),
-                        )
-                    });
-                    BackEnd {
-                        closer: LoopCloser::new(c),
-                        heading_prior,
-                    }
-                });
+                let back_end = BackEnd::new(&config, Some(&prior));
                 let front_end = SketchFrontEnd::new(prior, &config)?;
                 (
                     FrontEnd::Sketch(Box::new(front_end)),
@@ -512,6 +530,7 @@ mod tests {
     /// 3° too far per meter: ~8 m of heading drift in two laps); `after_scan` sees the
     /// mapper and the map revision before each scan.
     fn drive_laps(
+        method: Method,
         config: MapperConfig,
         mut after_scan: impl FnMut(&Mapper, u64),
     ) -> (Mapper, Vec<Pose2>) {
@@ -527,7 +546,7 @@ mod tests {
                 meters_per_pixel: 0.05,
             },
         };
-        let mut m = Mapper::new(Method::Sketch, Some(prior), config).unwrap();
+        let mut m = Mapper::new(method, Some(prior), config).unwrap();
         let mut odom_pose = Pose2::IDENTITY;
         for (k, t) in truth.iter().enumerate() {
             if k > 0 {
@@ -565,7 +584,7 @@ mod tests {
 
     #[test]
     fn a_closed_loop_moves_the_trajectory_and_rebuilds_the_grid() {
-        let (mut m, truth) = drive_laps(MapperConfig::default(), |_, _| {});
+        let (mut m, truth) = drive_laps(Method::Sketch, MapperConfig::default(), |_, _| {});
         let start = truth[0];
         let health = m.health();
         assert!(health.loop_closures >= 1, "{health:?}");
@@ -585,11 +604,11 @@ mod tests {
     #[test]
     fn a_front_end_reading_the_map_never_sees_a_pre_correction_map() {
         let config = MapperConfig {
-            sketch_icp_reference: IcpReference::Map,
+            keyframe_icp_reference: IcpReference::Map,
             ..MapperConfig::default()
         };
         let mut corrections = 0;
-        let (m, _) = drive_laps(config, |m, revision_before| {
+        let (m, _) = drive_laps(Method::Sketch, config, |m, revision_before| {
             if m.map_revision() == revision_before {
                 // No correction at this scan: the stale map (if any) was rebuilt before the
                 // front end ran, and this scan was fused into it.
@@ -602,5 +621,30 @@ mod tests {
             }
         });
         assert!(corrections >= 1, "{:?}", m.health());
+    }
+
+    /// Where each method ends after the two drifting laps: its distance from the truth's
+    /// end (map frame = start frame), and the loops it closed.
+    fn end_error_m(method: Method) -> (f64, u32) {
+        let (m, truth) = drive_laps(method, MapperConfig::default(), |_, _| {});
+        let end = truth[0].between(truth.last().unwrap());
+        let last = m.trajectory().last().unwrap().pose;
+        (
+            last.position().distance(&end.position()),
+            m.health().loop_closures,
+        )
+    }
+
+    #[test]
+    fn the_graph_method_closes_the_loop_without_a_drawing() {
+        let (graph_m, graph_loops) = end_error_m(Method::Graph);
+        let (icp_m, icp_loops) = end_error_m(Method::Icp);
+        // The same engine as `sketch` minus the drawing: keyframes and loop closures...
+        assert!(graph_loops >= 1, "graph closed no loop");
+        assert_eq!(icp_loops, 0);
+        // ...so it ends back at the start, where frame-to-frame ICP has drifted.
+        assert!(graph_m < 0.1, "graph ends {graph_m:.3} m off");
+        assert!(graph_m < icp_m, "graph {graph_m:.3} m, icp {icp_m:.3} m");
+        assert_eq!("graph".parse::<Method>().unwrap(), Method::Graph);
     }
 }

@@ -10,15 +10,16 @@
 //!    a drawing's walls have the right directions even where its proportions are wrong, so
 //!    the heading cannot drift;
 //! 4. point-to-line ICP with that heading held corrects the position (eq. 6), against the
-//!    map built so far or the previous scan (`MapperConfig::sketch_icp_reference`).
+//!    map built so far or the previous scan (`MapperConfig::keyframe_icp_reference`).
 //!
 //! It returns the pose, MCL's report and the scan lines it extracted; it never calls the
 //! back end. When the back end has moved the map (`FrontEndInput::map_revision`), the ICP
 //! reference built on the old poses is dropped and the previous scan is placed at the
 //! corrected `last_pose`.
 
-use super::config::{IcpReference, MapperConfig, SketchPrior};
+use super::config::{MapperConfig, SketchPrior};
 use super::front_end_io::{FrontEndInput, FrontEndOutput, SketchReport};
+use super::keyframe_icp::KeyframeIcp;
 use crate::EngineError;
 use crate::lines::matching::{HeadingAggregate, MatchConfig, heading_correction, match_lines};
 use crate::lines::ransac::{RansacConfig, extract_lines};
@@ -29,22 +30,13 @@ use crate::localization::mcl::{SketchMcl, StartSpread};
 use crate::localization::recovery::{
     FailureConfig, FailureDetector, ObservationPoints, RecoveryConfig, recover_mcl,
 };
-use crate::mapping::grid::OccupancyGrid;
-use crate::scan_matching::icp::{Icp, IcpConfig, IcpMode};
+use crate::scan_matching::icp::IcpMode;
 use crate::sketch::raycast::SketchRaycaster;
 use crate::sketch::{Sketch, SketchPose};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use sketchslam_types::{Point2, Pose2};
+use sketchslam_types::Pose2;
 use std::sync::Arc;
-
-/// Map points farther than this from the robot are left out of the ICP reference, meters.
-const ICP_REFERENCE_RADIUS_M: f64 = 50.0;
-
-/// The ICP reference is rebuilt after this many scans...
-const REFERENCE_REFRESH_SCANS: usize = 5;
-/// ...or once the robot is this far from where it was built, meters.
-const REFERENCE_REFRESH_M: f64 = 1.0;
 
 /// Spacing of the recovery's candidate observation points, meters at the guessed scale.
 const OBSERVATION_POINT_SPACING_M: f64 = 0.5;
@@ -74,19 +66,13 @@ pub(super) struct SketchFrontEnd {
     rng: ChaCha8Rng,
     observation: LineObservationConfig,
     ransac: RansacConfig,
-    icp: IcpConfig,
-    reference_kind: IcpReference,
-    /// The ICP reference, the pose it was built around and the map revision it was
-    /// built at.
-    reference: Option<(Icp, Pose2, u64)>,
-    scans_since_reference: usize,
+    /// Step 4: point-to-line ICP against a keyframe (or the map).
+    matcher: KeyframeIcp,
     /// Share of eq. (5)'s heading difference applied per scan (1 = the paper's hard
     /// correction with translation-only ICP).
     heading_gain: f64,
     /// Heading differences within this band are taken as drawing error, radians.
     heading_deadband_rad: f64,
-    /// The previous scan's points, robot frame (placed at the input's `last_pose`).
-    previous_points: Vec<Point2>,
 }
 
 impl SketchFrontEnd {
@@ -128,13 +114,9 @@ impl SketchFrontEnd {
             rng,
             observation: LineObservationConfig::default(),
             ransac: RansacConfig::default(),
-            icp: config.icp,
-            reference_kind: config.sketch_icp_reference,
-            reference: None,
-            scans_since_reference: 0,
+            matcher: KeyframeIcp::new(config),
             heading_gain: config.sketch_heading_gain.clamp(0.0, 1.0),
             heading_deadband_rad: config.sketch_heading_deadband_rad.max(0.0),
-            previous_points: Vec::new(),
             sketch: prior.sketch,
         })
     }
@@ -146,7 +128,7 @@ impl SketchFrontEnd {
 
     /// True when the ICP reference comes from the grid.
     pub(super) fn reads_map(&self) -> bool {
-        self.reference_kind == IcpReference::Map
+        self.matcher.reads_map()
     }
 
     /// One scan: steps 1–4 of the module docs.
@@ -243,7 +225,7 @@ impl SketchFrontEnd {
         } else {
             IcpMode::Full
         };
-        let aligned = self.align(input, guess, mode);
+        let aligned = self.matcher.align(input, guess, mode);
         let map_pose = match delta_rad {
             // eq. (5)'s difference measured at the prediction, re-referred to the ICP heading.
             Some(d) if !hard => {
@@ -260,8 +242,7 @@ impl SketchFrontEnd {
             }
             _ => aligned,
         };
-        self.previous_points = points.to_vec();
-        self.scans_since_reference += 1;
+        self.matcher.done(points);
         FrontEndOutput {
             pose: map_pose,
             scan_lines,
@@ -271,54 +252,6 @@ impl SketchFrontEnd {
                 lines_observed: observed.len(),
                 localization_score: self.mcl.score(),
             }),
-        }
-    }
-
-    /// Point-to-line ICP of the scan against the reference (map frame), from `guess`;
-    /// the guess itself when there is too little to align with or ICP does not converge.
-    fn align(&mut self, input: &FrontEndInput, guess: Pose2, mode: IcpMode) -> Pose2 {
-        let points = &input.frame.points[..];
-        if points.len() < 10 {
-            return guess;
-        }
-        let stale = self.reference.as_ref().is_none_or(|(_, at, revision)| {
-            *revision != input.map_revision
-                || self.scans_since_reference >= REFERENCE_REFRESH_SCANS
-                || at.position().distance(&guess.position()) > REFERENCE_REFRESH_M
-        });
-        if stale {
-            let centre = guess.position();
-            // The previous scan where the map holds it now.
-            let previous: Vec<Point2> = self
-                .previous_points
-                .iter()
-                .map(|p| input.last_pose.transform_point(p))
-                .collect();
-            let grid: &OccupancyGrid = input.grid;
-            let points = match self.reference_kind {
-                IcpReference::PreviousScan => previous,
-                IcpReference::Map => {
-                    let mut pts = grid.occupied_points_near(centre, ICP_REFERENCE_RADIUS_M);
-                    // The grid holds the last scans only once their cells pass the
-                    // occupancy threshold: add the previous scan so a new area has support.
-                    pts.extend_from_slice(&previous);
-                    pts
-                }
-            };
-            self.reference = Some((Icp::new(&points, self.icp), guess, input.map_revision));
-            self.scans_since_reference = 0;
-        }
-        let Some((icp, _, _)) = &self.reference else {
-            return guess;
-        };
-        if icp.len() < 10 {
-            return guess;
-        }
-        let result = icp.align(points, guess, mode);
-        if result.converged && result.pose.is_finite() {
-            result.pose
-        } else {
-            guess
         }
     }
 }
