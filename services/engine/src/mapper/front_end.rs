@@ -28,8 +28,9 @@ pub(super) enum FrontEnd {
         config: IcpConfig,
         previous_points: Option<Vec<Point2>>,
     },
-    /// Keyframe ICP, no drawing.
-    Graph(KeyframeIcp),
+    /// Keyframe ICP, no drawing (boxed like the sketch front end: the ICP reference with
+    /// its k-d tree is large beside the other variants).
+    Graph(Box<KeyframeIcp>),
     /// The paper's method on a drawing.
     Sketch(Box<SketchFrontEnd>),
 }

@@ -145,7 +145,7 @@ impl Mapper {
                 None,
             ),
             Method::Graph => (
-                FrontEnd::Graph(KeyframeIcp::new(&config)),
+                FrontEnd::Graph(Box::new(KeyframeIcp::new(&config))),
                 Pose2::IDENTITY,
                 BackEnd::new(&config, None),
             ),
