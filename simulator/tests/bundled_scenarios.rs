@@ -110,6 +110,11 @@ fn paper_env2_runs() {
 }
 
 #[test]
+fn school_runs() {
+    check_run("school", &["rough", "squeezed"]);
+}
+
+#[test]
 fn runs_are_deterministic_for_a_seed() {
     let mut scenario = Scenario::load(&scenario_dir("paper-env1")).unwrap();
     let a: Vec<_> = Simulation::new(&scenario).unwrap().take(300).collect();
@@ -124,7 +129,7 @@ fn runs_are_deterministic_for_a_seed() {
 
 #[test]
 fn scenarios_render() {
-    for name in ["paper-env1", "paper-env2"] {
+    for name in ["paper-env1", "paper-env2", "school"] {
         let scenario = Scenario::load(&scenario_dir(name)).unwrap();
         let img = render_scenario(&scenario, 6).unwrap();
         let (w, h) = image::image_dimensions(&scenario.world.image).unwrap();
