@@ -175,6 +175,30 @@ fn drawings_and_their_inverted_images_give_the_same_lines() {
     }
 }
 
+/// A CAD-style floor plan (double-line walls, grey outside the building, PNG grey + alpha)
+/// is accepted and used like a drawing: the Intel Lab plan gives a wall per line.
+#[test]
+fn a_cad_floor_plan_with_alpha_ingests_with_its_walls() {
+    let file = manifest_path("../../../shared/datasets/intel-lab/floorplan-cad.png");
+    if !file.is_file() {
+        println!(
+            "note: {} is absent, the CAD plan is skipped",
+            file.display()
+        );
+        return;
+    }
+    let bytes = std::fs::read(&file).unwrap();
+    let decoded = image::load_from_memory(&bytes).unwrap();
+    assert!(
+        decoded.color().has_alpha(),
+        "the plan is meant to carry alpha"
+    );
+    let sketch = Sketch::from_image_bytes(&bytes).unwrap();
+    assert_eq!((sketch.width_px, sketch.height_px), (708, 763));
+    let n = sketch.lines.len();
+    assert!(n >= 40, "only {n} lines from the CAD plan");
+}
+
 /// CRC-32 (IEEE 802.3, reflected, polynomial 0xEDB88320) as PNG chunks use it.
 fn crc32(bytes: &[u8]) -> u32 {
     let mut crc = 0xFFFF_FFFFu32;
