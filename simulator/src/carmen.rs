@@ -1,5 +1,5 @@
-//! CARMEN log files: the laser scans and odometry poses a real robot recorded, parsed into
-//! records in file order.
+//! CARMEN log files, and GMapping's `.gfs` output files written in the same spirit: the
+//! laser scans and odometry poses a real robot recorded, parsed into records in file order.
 //!
 //! This is the first stage of a log replay: [`crate::dataset::Dataset`] names the log,
 //! this module reads it, and [`crate::replay::Replay`] turns the records into the same
@@ -15,7 +15,14 @@
 //!     remission_mode num_readings r1..rn num_remissions m1..mk laser_pose_x laser_pose_y
 //!     laser_pose_theta robot_pose_x robot_pose_y robot_pose_theta laser_tv laser_rv
 //!     forward_safety_dist side_safety_dist turn_axis timestamp host logger_timestamp
+//! LASER_READING n r1..rn x y theta timestamp      (GMapping .gfs: x y theta = odometry pose)
+//! ODOM x y theta timestamp                        (GMapping .gfs: raw wheel odometry)
 //! ```
+//!
+//! A `.gfs` file's `LASER_READING` spans the field of view end to end (361 readings over 180°
+//! are 0.5° apart, the first at −90°, the last at +90°); a `FLASER`'s `n` readings are `1/n`-th
+//! of it apart. GMapping's bookkeeping lines (`FRAME`, `NEFF`, `SM_UPDATE`, `ODO_UPDATE`,
+//! `RESAMPLE`) are ignored like any other.
 //!
 //! Every other line (comments `#`, `PARAM`, `NEFF`, `RAWLASER*`, `TRUEPOS`, ...) is
 //! ignored. The time of a record is its `logger_timestamp`. A malformed line of a known
@@ -36,6 +43,9 @@ pub struct LaserRecord {
     pub ranges_m: Vec<f64>,
     /// Beam layout written in the line (`ROBOTLASER1` only; `FLASER` has none).
     pub layout: Option<BeamLayout>,
+    /// Without a layout: true when the readings span the field of view end to end
+    /// (`LASER_READING`, `n − 1` gaps), false when they are `1/n`-th of it apart (`FLASER`).
+    pub end_to_end: bool,
     /// Pose of the laser when the scan was taken (`x y theta` / `laser_pose_*`).
     pub laser_pose: Pose2,
     /// Pose of the robot (`odom_*` / `robot_pose_*`).
@@ -101,6 +111,13 @@ impl CarmenLog {
                 Some(&"FLASER") => parse_flaser(&tokens, line_no).map(CarmenRecord::Laser),
                 Some(&"ROBOTLASER1") => {
                     parse_robotlaser1(&tokens, line_no).map(CarmenRecord::Laser)
+                }
+                Some(&"LASER_READING") => {
+                    parse_laser_reading(&tokens, line_no).map(CarmenRecord::Laser)
+                }
+                // GMapping's `ODOM x y theta t` has 5 fields, CARMEN's 10.
+                Some(&"ODOM") if tokens.len() == 5 => {
+                    parse_gfs_odom(&tokens, line_no).map(CarmenRecord::Odometry)
                 }
                 Some(&"ODOM") => parse_odom(&tokens, line_no).map(CarmenRecord::Odometry),
                 _ => continue,
@@ -198,6 +215,7 @@ fn parse_flaser(tokens: &[&str], line: usize) -> Result<LaserRecord, String> {
         line,
         ranges_m: readings(tokens, 2, n)?,
         layout: None,
+        end_to_end: false,
         laser_pose: pose(tokens, 2 + n, "")?,
         robot_pose: pose(tokens, 5 + n, "odom_")?,
         timestamp_s: number(tokens, 10 + n, "logger_timestamp")?,
@@ -218,6 +236,7 @@ fn parse_robotlaser1(tokens: &[&str], line: usize) -> Result<LaserRecord, String
     let p = 10 + n + m;
     Ok(LaserRecord {
         line,
+        end_to_end: false,
         layout: Some(BeamLayout {
             start_angle_rad: number(tokens, 2, "start_angle")?,
             angular_resolution_rad: number(tokens, 4, "angular_resolution")?,
@@ -240,6 +259,30 @@ fn parse_odom(tokens: &[&str], line: usize) -> Result<OdomRecord, String> {
         line,
         pose: pose(tokens, 1, "")?,
         timestamp_s: number(tokens, 9, "logger_timestamp")?,
+    })
+}
+
+fn parse_laser_reading(tokens: &[&str], line: usize) -> Result<LaserRecord, String> {
+    let n = count(tokens, 1, "n")?;
+    expect_len(tokens, n + 6, "LASER_READING n r1..rn x y theta timestamp")?;
+    let at = pose(tokens, 2 + n, "")?;
+    Ok(LaserRecord {
+        line,
+        ranges_m: readings(tokens, 2, n)?,
+        layout: None,
+        end_to_end: true,
+        laser_pose: at,
+        robot_pose: at,
+        timestamp_s: number(tokens, 5 + n, "timestamp")?,
+    })
+}
+
+fn parse_gfs_odom(tokens: &[&str], line: usize) -> Result<OdomRecord, String> {
+    expect_len(tokens, 5, "ODOM x y theta timestamp")?;
+    Ok(OdomRecord {
+        line,
+        pose: pose(tokens, 1, "")?,
+        timestamp_s: number(tokens, 4, "timestamp")?,
     })
 }
 
@@ -290,5 +333,32 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("x.log:1:") && e.contains("`y`"), "{e}");
+    }
+
+    #[test]
+    fn parses_gmapping_gfs_lines_and_skips_its_bookkeeping() {
+        let gfs = "PARAM delta 0.05\n\
+            ODOM 576.537 0.107 -2.255213 1134864629.895182\n\
+            ODO_UPDATE 30 0.000 0.000 0.000000 0.000000\n\
+            LASER_READING 3 1.5 81.91 2.5 576.48 -0.10 -1.48 1134864642.914187\n\
+            FRAME 1\nNEFF 30\nSM_UPDATE 30 1 2 3\nRESAMPLE 1 2 3\n";
+        let log = CarmenLog::parse(gfs, Path::new("x.gfs")).unwrap();
+        assert_eq!(log.records.len(), 2);
+        let odom = log.odometry().next().unwrap();
+        assert_eq!(odom.line, 2);
+        assert!((odom.timestamp_s - 1134864629.895182).abs() < 1e-6);
+        assert!((odom.pose.x - 576.537).abs() < 1e-12);
+        let laser = log.lasers().next().unwrap();
+        assert_eq!(laser.ranges_m, vec![1.5, 81.91, 2.5]);
+        assert!(laser.end_to_end && laser.layout.is_none());
+        assert_eq!(laser.laser_pose, laser.robot_pose);
+        assert!((laser.timestamp_s - 1134864642.914187).abs() < 1e-6);
+        // A short line names its layout.
+        let err = CarmenLog::parse("LASER_READING 3 1 2 3 0 0\n", Path::new("x.gfs"));
+        assert!(
+            err.unwrap_err()
+                .to_string()
+                .contains("LASER_READING n r1..rn")
+        );
     }
 }

@@ -22,6 +22,11 @@
 //! seed = 5
 //! [[sketch]]                             # as in scenario.toml
 //! ```
+//!
+//! A log whose `ODOM` lines are the robot's raw wheel odometry (not corrected poses) says so
+//! with `[odometry] source = "log"` and no noise keys: the replay publishes that odometry as
+//! it is and adds nothing; such a log has no reference trajectory, only its relations score
+//! a run. `source = "drift"` (the default) is the table above.
 
 use crate::error::SimError;
 use crate::scenario::{OdometryConfig, SketchConfig, SketchTable};
@@ -47,12 +52,34 @@ pub struct Dataset {
     pub relations_time_offset_s: f64,
     /// The scanner.
     pub lidar: DatasetLidar,
-    /// The drift a replay adds to the log's poses (`rate_hz` is unused: the log's rate).
+    /// Where the published odometry comes from.
+    pub odometry_source: OdometrySource,
+    /// The drift a replay adds to the log's poses (`rate_hz` is unused: the log's rate);
+    /// all zero with [`OdometrySource::Log`].
     pub odometry: OdometryConfig,
     /// Seed of the replay's odometry noise.
     pub seed: u64,
     /// The hand-drawn maps, in file order.
     pub sketches: Vec<SketchConfig>,
+}
+
+/// Where a replay's odometry comes from (`[odometry] source`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OdometrySource {
+    /// The log's poses are corrected (GMapping's output): the replay adds seeded drift to
+    /// them, and they are the reference trajectory of the ATE.
+    Drift,
+    /// The log's `ODOM` lines are raw wheel odometry: replayed as they are; no reference
+    /// trajectory.
+    Log,
+}
+
+impl Dataset {
+    /// True when the log's poses are a reference trajectory (corrected poses), so an ATE
+    /// against them means something.
+    pub fn has_reference_poses(&self) -> bool {
+        self.odometry_source == OdometrySource::Drift
+    }
 }
 
 /// `[lidar]`: what a `FLASER` line does not say about its scanner.
@@ -139,12 +166,52 @@ impl Dataset {
             ));
         }
         let o = &raw.odometry;
+        let noise_keys = [
+            ("trans_noise", o.trans_noise),
+            ("rot_noise", o.rot_noise),
+            ("trans_bias", o.trans_bias),
+            ("rot_bias", o.rot_bias),
+            ("seed", o.seed.map(|s| s as f64)),
+        ];
+        let odometry_source = match o.source.as_deref() {
+            None | Some("drift") => OdometrySource::Drift,
+            Some("log") => OdometrySource::Log,
+            Some(other) => {
+                return Err(invalid(
+                    Table::Named("odometry"),
+                    "source",
+                    format!("must be \"drift\" or \"log\", got {other:?}"),
+                ));
+            }
+        };
+        match odometry_source {
+            OdometrySource::Drift => {
+                if let Some((key, _)) = noise_keys.iter().find(|(_, v)| v.is_none()) {
+                    return Err(invalid(
+                        Table::Named("odometry"),
+                        key,
+                        "is missing (it is required unless source = \"log\")".into(),
+                    ));
+                }
+            }
+            OdometrySource::Log => {
+                if let Some((key, _)) = noise_keys.iter().find(|(_, v)| v.is_some()) {
+                    return Err(invalid(
+                        Table::Named("odometry"),
+                        key,
+                        "does not apply with source = \"log\": the log's odometry is replayed \
+                         as it is"
+                            .into(),
+                    ));
+                }
+            }
+        }
         let odometry = OdometryConfig {
             rate_hz: 0.0,
-            trans_noise: o.trans_noise,
-            rot_noise: o.rot_noise,
-            trans_bias: o.trans_bias,
-            rot_bias: o.rot_bias,
+            trans_noise: o.trans_noise.unwrap_or(0.0),
+            rot_noise: o.rot_noise.unwrap_or(0.0),
+            trans_bias: o.trans_bias.unwrap_or(0.0),
+            rot_bias: o.rot_bias.unwrap_or(0.0),
         };
         if let Err(p) = odometry.validate_noise() {
             return Err(invalid(Table::Named("odometry"), p.key, p.message));
@@ -171,8 +238,9 @@ impl Dataset {
                 fov_rad,
                 max_range_m: raw.lidar.max_range,
             },
+            odometry_source,
             odometry,
-            seed: o.seed,
+            seed: o.seed.unwrap_or(0),
             sketches,
         })
     }
@@ -211,11 +279,18 @@ struct LidarTable {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct OdometryTable {
-    trans_noise: f64,
-    rot_noise: f64,
-    trans_bias: f64,
-    rot_bias: f64,
-    seed: u64,
+    #[serde(default)]
+    source: Option<String>,
+    #[serde(default)]
+    trans_noise: Option<f64>,
+    #[serde(default)]
+    rot_noise: Option<f64>,
+    #[serde(default)]
+    trans_bias: Option<f64>,
+    #[serde(default)]
+    rot_bias: Option<f64>,
+    #[serde(default)]
+    seed: Option<u64>,
 }
 
 #[cfg(test)]
@@ -256,5 +331,38 @@ mod tests {
             .to_string();
         assert!(e.contains(":2:") && e.contains("`log`"), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn raw_odometry_is_source_log_without_noise_keys() {
+        let dir = temp_dir("raw");
+        std::fs::write(dir.join("x.log"), "ODOM 0 0 0 0\n").unwrap();
+        let file = dir.join(DATASET_FILE);
+        let noise =
+            "trans_noise = 0.05\nrot_noise = 0.05\ntrans_bias = 0.02\nrot_bias = 0.02\nseed = 5\n";
+        let raw = TEXT.replace(noise, "source = \"log\"\n");
+        let d = Dataset::from_toml(&raw, &file).unwrap();
+        assert_eq!(d.odometry_source, OdometrySource::Log);
+        assert!(!d.has_reference_poses());
+        assert_eq!(d.odometry.trans_noise, 0.0);
+        // The default is drift, which needs every noise key...
+        let d = Dataset::from_toml(TEXT, &file).unwrap();
+        assert_eq!(d.odometry_source, OdometrySource::Drift);
+        let e = Dataset::from_toml(&TEXT.replace("seed = 5\n", ""), &file)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("odometry.seed") && e.contains("missing"), "{e}");
+        // ...and raw odometry takes none of them.
+        let e = Dataset::from_toml(&raw.replace("source", "seed = 1\nsource"), &file)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("odometry.seed") && e.contains("does not apply"),
+            "{e}"
+        );
+        let e = Dataset::from_toml(&raw.replace("\"log\"", "\"wheels\""), &file)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("odometry.source") && e.contains("wheels"), "{e}");
     }
 }

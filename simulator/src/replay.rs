@@ -31,6 +31,11 @@
 //! dead-reckoned pose it returns — starting at the identity, as a driver that zeroes its
 //! odometry at boot. [`Replay::drift_note`] says so in one line, for the logs.
 //!
+//! A log of raw wheel odometry (`[odometry] source = "log"`, e.g. the MIT CSAIL log) is
+//! replayed as it is: no drift is added, every `ODOM` line is kept (raw odometry has no
+//! correction frames to respect), and the scans' poses — the odometry at their time — are
+//! no reference trajectory ([`Dataset::has_reference_poses`]).
+//!
 //! Odometry readings are the `ODOM` lines, plus one at every scan's stamp (sent just before
 //! the scan) from the scan's reference pose, so the mapper has odometry exactly at each scan.
 //!
@@ -44,7 +49,7 @@
 //! events are then sorted by stamp (stable; a scan's odometry before the scan).
 
 use crate::carmen::{CarmenLog, CarmenRecord, LaserRecord};
-use crate::dataset::Dataset;
+use crate::dataset::{Dataset, OdometrySource};
 use crate::error::SimError;
 use crate::lidar::RANGE_MIN_M;
 use crate::odometry::OdometryModel;
@@ -131,7 +136,8 @@ impl Replay {
                     let before_next = laser_stamps
                         .get(lasers_before)
                         .is_none_or(|&next| stamp_ns < next);
-                    if after_previous && before_next && o.pose.is_finite() {
+                    let raw = dataset.odometry_source == OdometrySource::Log;
+                    if (raw || (after_previous && before_next)) && o.pose.is_finite() {
                         items.push((
                             stamp_ns,
                             lasers_before,
@@ -171,9 +177,13 @@ impl Replay {
         for (_, _, _, item) in &items {
             match item {
                 Item::Odom { pose, .. } | Item::ScanOdom { pose, .. } => {
-                    let dead_reckoned = match previous {
-                        Some(prev) => model.step(prev, *pose),
-                        None => model.pose(),
+                    let dead_reckoned = match dataset.odometry_source {
+                        // Raw odometry: published as the robot reported it.
+                        OdometrySource::Log => *pose,
+                        OdometrySource::Drift => match previous {
+                            Some(prev) => model.step(prev, *pose),
+                            None => model.pose(),
+                        },
                     };
                     previous = Some(*pose);
                     steps.push(SimStep {
@@ -198,18 +208,26 @@ impl Replay {
             }
         }
         let o = &dataset.odometry;
-        let note = format!(
-            "replay of {}: the log's poses are corrected, so the published odometry is them plus \
+        let note = match dataset.odometry_source {
+            OdometrySource::Log => format!(
+                "replay of {}: the log's ODOM lines are raw wheel odometry, published as they are \
+                 (no drift added; the log holds no reference trajectory); {scans} scans, \
+                 {odometry} odometry readings",
+                dataset.log.display()
+            ),
+            OdometrySource::Drift => format!(
+                "replay of {}: the log's poses are corrected, so the published odometry is them plus \
              drift added here (trans_noise {}, rot_noise {}, trans_bias {}, rot_bias {}, seed {}); \
              {scans} scans, {odometry} odometry readings, {dropped_odometry} out-of-order ODOM \
              lines dropped",
-            dataset.log.display(),
-            o.trans_noise,
-            o.rot_noise,
-            o.trans_bias,
-            o.rot_bias,
-            dataset.seed
-        );
+                dataset.log.display(),
+                o.trans_noise,
+                o.rot_noise,
+                o.trans_bias,
+                o.rot_bias,
+                dataset.seed
+            ),
+        };
         Ok(Replay {
             steps: steps.into_iter(),
             scans,
@@ -250,11 +268,18 @@ fn scan_of(dataset: &Dataset, laser: &LaserRecord, sequence: u64, stamp_ns: u64)
             l.angular_resolution_rad,
             dataset.lidar.max_range_m.min(l.max_range_m),
         ),
-        None => (
-            -0.5 * dataset.lidar.fov_rad,
-            dataset.lidar.fov_rad / n.max(1) as f64,
-            dataset.lidar.max_range_m,
-        ),
+        None => {
+            let gaps = if laser.end_to_end {
+                n.saturating_sub(1)
+            } else {
+                n
+            };
+            (
+                -0.5 * dataset.lidar.fov_rad,
+                dataset.lidar.fov_rad / gaps.max(1) as f64,
+                dataset.lidar.max_range_m,
+            )
+        }
     };
     let ranges_m = laser
         .ranges_m
@@ -302,6 +327,7 @@ mod tests {
 
     fn dataset(noise: f64) -> Dataset {
         Dataset {
+            odometry_source: OdometrySource::Drift,
             name: "t".into(),
             dir: PathBuf::from("/d"),
             log: PathBuf::from("/d/x.log"),
@@ -397,6 +423,50 @@ mod tests {
         assert_eq!(replay.scan_count(), 910);
         let mut last = 0;
         for step in replay {
+            assert!(step.event.stamp_ns() >= last);
+            last = step.event.stamp_ns();
+        }
+    }
+
+    /// The MIT CSAIL log of the shared data sets: GMapping's .gfs with raw wheel odometry,
+    /// replayed as it is.
+    #[test]
+    fn csail_gfs_has_406_scans_of_361_beams_and_its_raw_odometry_is_replayed_as_is() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/datasets/mit-csail");
+        let dataset = Dataset::load(&dir).unwrap();
+        assert_eq!(dataset.odometry_source, OdometrySource::Log);
+        assert!(!dataset.has_reference_poses());
+        let log = CarmenLog::read(&dataset.log).unwrap();
+        assert_eq!(log.lasers().count(), 406);
+        assert!(
+            log.lasers()
+                .all(|l| l.ranges_m.len() == 361 && l.end_to_end)
+        );
+        assert_eq!(log.odometry().count(), 1988);
+        let first_odom = log.odometry().map(|o| o.pose).next().unwrap();
+        let replay = Replay::from_log(&dataset, &log).unwrap();
+        assert_eq!(replay.scan_count(), 406);
+        // Every ODOM line kept, plus one at each scan.
+        assert_eq!(replay.odometry_count(), 1988 + 406);
+        assert_eq!(replay.dropped_odometry(), 0);
+        assert!(replay.drift_note().contains("raw wheel odometry"));
+        let steps: Vec<SimStep> = replay.collect();
+        let SensorEvent::Odometry(o) = &steps[0].event else {
+            panic!("the stream starts with odometry")
+        };
+        assert_eq!(o.pose(), first_odom, "raw odometry is published unchanged");
+        let scan = steps
+            .iter()
+            .find_map(|s| match &s.event {
+                SensorEvent::Scan(scan) => Some(scan.clone()),
+                _ => None,
+            })
+            .unwrap();
+        // 361 readings over 180°: 0.5° apart, the last at +90°.
+        assert!((scan.header.angle_increment_rad as f64 - 0.5f64.to_radians()).abs() < 1e-6);
+        assert!((scan.beam_angle_rad(360) - 90f64.to_radians()).abs() < 1e-5);
+        let mut last = 0;
+        for step in &steps {
             assert!(step.event.stamp_ns() >= last);
             last = step.event.stamp_ns();
         }

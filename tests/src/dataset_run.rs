@@ -71,7 +71,8 @@ pub fn run_dataset_in_process(
         progress,
     )?;
     let relations = dataset_relations(dataset)?;
-    let mut result = score_dataset_artifacts(out_dir, &run.truth, &relations)?;
+    let reference = dataset.has_reference_poses().then_some(&run.truth[..]);
+    let mut result = score_dataset_artifacts(out_dir, reference, &relations)?;
     if let (Some(cfg), Some(sketch_pose)) = (sketch, run.mapper.pose().sketch) {
         write_sketch_artifacts(out_dir, cfg, run.mapper.pose().map, &sketch_pose)?;
     }
@@ -100,7 +101,8 @@ pub fn run_dataset_real_process(
     let mapped = map_through_processes(&source, method, sketch, out_dir, max_scans, progress)?;
     let truth = read_trajectory_csv(&out_dir.join("truth.csv"))?;
     let relations = dataset_relations(dataset)?;
-    let mut result = score_dataset_artifacts(out_dir, &truth, &relations)?;
+    let reference = dataset.has_reference_poses().then_some(&truth[..]);
+    let mut result = score_dataset_artifacts(out_dir, reference, &relations)?;
     if let (Some(cfg), (map_pose, Some(sketch_pose))) = (sketch, &mapped.final_pose) {
         write_sketch_artifacts(out_dir, cfg, *map_pose, sketch_pose)?;
     }
@@ -110,24 +112,33 @@ pub fn run_dataset_real_process(
 
 /// Reads a dataset run's `map.pgm`, `map.yaml` and `trajectory.csv`, scores the trajectory
 /// against the reference poses (`truth`, ATE after SE(2) alignment) and the relations,
-/// and draws `overlay.png`. Map error and completeness are NaN (no true walls);
+/// and draws `overlay.png`. Map error and completeness are NaN (no true walls), and so is
+/// the ATE of a log without reference poses (`truth` `None`: raw odometry, e.g. MIT CSAIL,
+/// where only the relations score a run and the overlay shows the map and estimate alone);
 /// name/method fields are left empty.
 pub fn score_dataset_artifacts(
     out_dir: &Path,
-    truth: &[StampedPose],
+    truth: Option<&[StampedPose]>,
     relations: &[Relation],
 ) -> Result<RunResult> {
     let occupied = read_map_occupied_points(out_dir)?;
     let estimate = read_trajectory_csv(&out_dir.join("trajectory.csv"))?;
-    let traj = metrics::score_trajectory(&estimate, truth)
-        .context("the trajectory does not overlap the reference")?;
+    let (ate_rmse_m, alignment, drawn_truth) = match truth {
+        Some(truth) => {
+            let traj = metrics::score_trajectory(&estimate, truth)
+                .context("the trajectory does not overlap the reference")?;
+            (traj.ate_rmse_m, traj.alignment, truth)
+        }
+        None => (f64::NAN, Pose2::IDENTITY, &[][..]),
+    };
     let rel = score_relations(&estimate, relations);
-    draw_overlay(&occupied, &estimate, truth, &traj.alignment).save(out_dir.join("overlay.png"))?;
+    draw_overlay(&occupied, &estimate, drawn_truth, &alignment)
+        .save(out_dir.join("overlay.png"))?;
     Ok(RunResult {
         scenario: String::new(),
         method: String::new(),
         sketch: None,
-        ate_rmse_m: traj.ate_rmse_m,
+        ate_rmse_m,
         map_error_m: f64::NAN,
         completeness: f64::NAN,
         rel_trans_m: rel.map(|r| r.trans_mean_m),

@@ -138,6 +138,27 @@ pub fn consecutive_relations(truth: &[StampedPose]) -> Vec<Relation> {
         .collect()
 }
 
+/// The mean translational (and, where given, rotational) relation errors the literature
+/// reports for a shared dataset's relations, as printed beside ours; `None` for a dataset
+/// without published figures. Sources: Kümmerle et al., "On measuring the accuracy of SLAM
+/// algorithms", Autonomous Robots 27(4), 2009; Hess et al., "Real-time loop closure in 2D
+/// LIDAR SLAM", ICRA 2016 (each dataset's `PROVENANCE.md` cites them).
+pub fn published_relation_errors(dataset: &str) -> Option<&'static str> {
+    match dataset {
+        "intel-lab" => Some(
+            "scan matching 0.220 ± 0.296 m, GMapping (RBPF) 0.070 ± 0.083 m, graph mapping \
+             0.031 ± 0.026 m (Kümmerle et al. 2009); Cartographer 0.0229 ± 0.0239 m, \
+             0.453 ± 1.335° (Hess et al. 2016)",
+        ),
+        "mit-csail" => Some(
+            "scan matching 0.106 ± 0.325 m, GMapping (RBPF) 0.049 ± 0.049 m, graph mapping \
+             0.004 ± 0.009 m (Kümmerle et al. 2009); Cartographer 0.0319 ± 0.0363 m \
+             (Hess et al. 2016)",
+        ),
+        _ => None,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -11,17 +11,48 @@ use std::path::Path;
 /// The first scans of the log: a few minutes of the robot's route.
 const SCANS: u64 = 100;
 
-/// The shared Intel Lab dataset, or `None` (with a note) when it is not beside the checkout.
-fn intel_dataset() -> anyhow::Result<Option<Dataset>> {
-    let dir = Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/datasets/intel-lab"
-    ));
+/// The shared dataset `name`, or `None` (with a note) when it is not beside the checkout.
+fn shared_dataset(name: &str) -> anyhow::Result<Option<Dataset>> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/datasets")
+        .join(name);
     if !dir.join(DATASET_FILE).is_file() {
         eprintln!("skipped: no shared dataset at {}", dir.display());
         return Ok(None);
     }
-    Ok(Some(Dataset::load(dir)?))
+    Ok(Some(Dataset::load(&dir)?))
+}
+
+/// The shared Intel Lab dataset, or `None` (with a note) when it is not beside the checkout.
+fn intel_dataset() -> anyhow::Result<Option<Dataset>> {
+    shared_dataset("intel-lab")
+}
+
+/// The MIT CSAIL log replays its raw wheel odometry as it is, in both modes alike; with no
+/// reference trajectory only the relations score it (no ATE).
+#[test]
+fn csail_raw_odometry_replay_maps_the_same_in_both_modes() -> anyhow::Result<()> {
+    let Some(dataset) = shared_dataset("mit-csail")? else {
+        return Ok(());
+    };
+    let out = std::env::temp_dir().join(format!("sketchslam-csail-{}", std::process::id()));
+    let (a_dir, b_dir) = (out.join("in-process"), out.join("processes"));
+    let a = run_dataset_in_process(&dataset, Method::Icp, None, &a_dir, Some(SCANS), |_, _| {})?;
+    let b = run_dataset_real_process(&dataset, Method::Icp, None, &b_dir, Some(SCANS), |_, _| {})?;
+    assert_eq!((a.scans, b.scans), (SCANS, SCANS));
+    assert!(
+        std::fs::read(a_dir.join("map.pgm"))? == std::fs::read(b_dir.join("map.pgm"))?,
+        "the two modes built different maps: see {}",
+        out.display()
+    );
+    assert_eq!(a.rel_trans_m, b.rel_trans_m);
+    assert!(a.relations.unwrap_or(0) > 50, "{:?} relations", a.relations);
+    assert!(
+        a.ate_rmse_m.is_nan(),
+        "an ATE against raw odometry means nothing"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+    Ok(())
 }
 
 #[test]

@@ -22,6 +22,7 @@ use sketchslam_simulator::dataset::{DATASET_FILE, Dataset};
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
 use sketchslam_tests::dataset_run::{run_dataset_in_process, run_dataset_real_process};
 use sketchslam_tests::real_process::run_real_process;
+use sketchslam_tests::relations::published_relation_errors;
 use sketchslam_tests::run::{RunResult, run_in_process, run_name};
 use std::path::PathBuf;
 
@@ -243,7 +244,7 @@ fn print_relations(results: &[RunResult]) {
         (Some(m), Some(sd)) => format!("{m:.3} ± {sd:.3}"),
         _ => "-".to_string(),
     };
-    for r in runs {
+    for r in &runs {
         println!(
             "{:<12} {:<9} {:<10} {:>17} {:>17} {:>9}",
             r.scenario,
@@ -254,11 +255,13 @@ fn print_relations(results: &[RunResult]) {
             r.relations.unwrap_or(0)
         );
     }
-    println!(
-        "published (Intel, same relations): scan matching 0.220 ± 0.296 m, GMapping (RBPF) \
-         0.070 ± 0.083 m, graph mapping 0.031 ± 0.026 m (Kümmerle et al. 2009); Cartographer \
-         0.0229 ± 0.0239 m, 0.453 ± 1.335° (Hess et al. 2016)"
-    );
+    let mut names: Vec<&str> = runs.iter().map(|r| r.scenario.as_str()).collect();
+    names.dedup();
+    for name in names {
+        if let Some(figures) = published_relation_errors(name) {
+            println!("published ({name}, same relations): {figures}");
+        }
+    }
 }
 
 fn print_table(results: &[RunResult]) {
@@ -282,11 +285,11 @@ fn print_table(results: &[RunResult]) {
     let opt = |v: Option<f64>, prec: usize| v.map_or("-".to_string(), |v| format!("{v:.prec$}"));
     for r in results {
         println!(
-            "{:<12} {:<9} {:<8} {:>7.3} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5} {:>5}",
+            "{:<12} {:<9} {:<8} {} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5} {:>5}",
             r.scenario,
             r.method,
             r.sketch.as_deref().unwrap_or("-"),
-            r.ate_rmse_m,
+            num(r.ate_rmse_m, 7, 3),
             num(r.map_error_m, 9, 3),
             num(r.completeness, 7, 3),
             r.scans,
