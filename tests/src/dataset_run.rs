@@ -154,6 +154,10 @@ pub fn score_dataset_artifacts(
         scan_ms_mean: None,
         scan_ms_p99: None,
         realtime_factor: None,
+        sketch_pose_median_m: None,
+        sketch_pose_p95_m: None,
+        sketch_pose_within_1m: None,
+        sketch_heading_median_deg: None,
         out_dir: out_dir.to_path_buf(),
     })
 }

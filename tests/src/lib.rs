@@ -12,3 +12,4 @@ pub mod run;
 pub mod run_loop;
 pub mod service_process;
 pub mod session_request;
+pub mod sketch_truth;

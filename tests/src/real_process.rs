@@ -10,10 +10,12 @@
 use crate::metrics::WallGrid;
 use crate::processes::{ChildGuard, binary, unique_prefix};
 use crate::run::{RunResult, Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
-use crate::run_loop::RunFigures;
+use crate::run_loop::{RunFigures, sketch_trajectory_csv};
 use crate::service_process::{ServiceOptions, ServiceProcess};
 use crate::session_request::{baseline_session, sketch_session};
+use crate::sketch_truth::fill_sketch_pose_scores;
 use anyhow::{Context, Result, bail};
+use sketchslam_api::{SessionEvent, SketchPoseInfo};
 use sketchslam_engine::mapper::Method;
 use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
@@ -24,6 +26,16 @@ use sketchslam_types::Pose2;
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+
+/// The API's pose on the drawing as the engine's (degrees → radians).
+fn sketch_pose_of(s: &SketchPoseInfo) -> SketchPose {
+    SketchPose {
+        u_px: s.u,
+        v_px: s.v,
+        heading_rad: s.heading_deg.to_radians(),
+        meters_per_pixel: s.meters_per_pixel,
+    }
+}
 
 /// The robot id the simulator publishes under in an evaluation run.
 const ROBOT_ID: &str = "eval";
@@ -61,6 +73,15 @@ pub fn run_real_process(
     };
     let mut result = score_artifacts(out_dir, &truth)?;
     mapped.fill(&mut result, &scenario.name, method, sketch);
+    if let Some(cfg) = sketch.filter(|_| method == Method::Sketch) {
+        fill_sketch_pose_scores(
+            &mut result,
+            &scenario.dir,
+            &cfg.name,
+            &truth.poses,
+            &mapped.published_sketch_poses,
+        )?;
+    }
     Ok(result)
 }
 
@@ -84,6 +105,9 @@ pub struct ProcessRun {
     pub figures: RunFigures,
     /// The session's last pose: map frame, and on the drawing (`sketch` sessions).
     pub final_pose: (Pose2, Option<SketchPose>),
+    /// `sketch` sessions: every pose on the drawing the session published live (its event
+    /// stream, one per scan; a slow reader may miss some), with its stamp in seconds.
+    pub published_sketch_poses: Vec<(f64, SketchPose)>,
 }
 
 impl ProcessRun {
@@ -116,7 +140,9 @@ pub fn map_through_processes(
     let _ = std::fs::remove_dir_all(&data_dir);
     let prefix = unique_prefix("eval");
     let options = ServiceOptions::new(&data_dir, &prefix, out_dir.join("service.log"));
-    let runtime = tokio::runtime::Builder::new_current_thread()
+    // One worker, so the event reader below runs while this thread polls the session.
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
         .enable_all()
         .build()?;
     let mut service = runtime.block_on(ServiceProcess::start(&options))?;
@@ -133,6 +159,24 @@ pub fn map_through_processes(
         (m, _) => baseline_session(ROBOT_ID, api_method(m), Some(source.seed)),
     };
     let session = runtime.block_on(client.create_session(&request))?;
+    // The poses on the drawing as a live client sees them, until the session stops.
+    let recorder = match method {
+        Method::Sketch => {
+            let mut events = runtime.block_on(client.events(&session.id))?;
+            Some(runtime.spawn(async move {
+                let mut poses = Vec::new();
+                while let Ok(Some(event)) = events.next_event().await {
+                    if let SessionEvent::Pose(p) = event
+                        && let (Some(t_s), Some(s)) = (p.stamp, p.sketch)
+                    {
+                        poses.push((t_s, sketch_pose_of(&s)));
+                    }
+                }
+                poses
+            }))
+        }
+        _ => None,
+    };
 
     let total = max_scans.map_or(source.scans, |m| m.min(source.scans));
     let truth_path = out_dir.join("truth.csv");
@@ -190,14 +234,22 @@ pub fn map_through_processes(
     let pose = runtime.block_on(client.pose(&session.id))?;
     let final_pose = (
         Pose2::new(pose.x, pose.y, pose.theta),
-        pose.sketch.map(|s| SketchPose {
-            u_px: s.u,
-            v_px: s.v,
-            heading_rad: s.heading_deg.to_radians(),
-            meters_per_pixel: s.meters_per_pixel,
-        }),
+        pose.sketch.as_ref().map(sketch_pose_of),
     );
     let stopped = runtime.block_on(client.stop_session(&session.id))?;
+    // The event stream ends with the session.
+    let published_sketch_poses = match recorder {
+        Some(task) => runtime
+            .block_on(async { tokio::time::timeout(Duration::from_secs(20), task).await })
+            .context("the session's event stream did not end after the stop")??,
+        None => Vec::new(),
+    };
+    if !published_sketch_poses.is_empty() {
+        std::fs::write(
+            out_dir.join("sketch-trajectory.csv"),
+            sketch_trajectory_csv(&published_sketch_poses),
+        )?;
+    }
     std::fs::write(
         out_dir.join("map.pgm"),
         runtime.block_on(client.map_pgm(&session.id))?,
@@ -219,5 +271,6 @@ pub fn map_through_processes(
             loop_closures: stopped.loop_closures as u32,
         },
         final_pose,
+        published_sketch_poses,
     })
 }

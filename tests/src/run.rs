@@ -8,6 +8,7 @@
 use crate::metrics::{self, StampedPose, WallGrid};
 use crate::overlay;
 use crate::run_loop::map_in_process;
+use crate::sketch_truth::fill_sketch_pose_scores;
 use anyhow::{Context, Result};
 use serde::Serialize;
 use sketchslam_engine::mapper::{Method, SketchPrior};
@@ -78,6 +79,20 @@ pub struct RunResult {
     /// Simulated seconds mapped per second of engine time on one core (in-process runs).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub realtime_factor: Option<f64>,
+    /// `sketch` runs on a scenario with `sketch-truth.toml`: median error of the pose on the
+    /// drawing (after each scan in-process; as published live through the processes),
+    /// meters at the drawing's nominal scale.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sketch_pose_median_m: Option<f64>,
+    /// 95th percentile of that error, meters at the nominal scale.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sketch_pose_p95_m: Option<f64>,
+    /// Share of scans whose pose on the drawing is within 1 m-equivalent of the truth.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sketch_pose_within_1m: Option<f64>,
+    /// Median heading error on the drawing, degrees.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sketch_heading_median_deg: Option<f64>,
     /// Where the artifacts are.
     pub out_dir: PathBuf,
 }
@@ -154,6 +169,15 @@ pub fn run_in_process(
     };
     let mut result = score_artifacts(out_dir, &truth)?;
     run.fill(&mut result, &scenario.name, method, sketch);
+    if let Some(cfg) = sketch.filter(|_| method == Method::Sketch) {
+        fill_sketch_pose_scores(
+            &mut result,
+            &scenario.dir,
+            &cfg.name,
+            &run.truth,
+            &run.sketch_poses,
+        )?;
+    }
     Ok(result)
 }
 
@@ -221,6 +245,10 @@ pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
         scan_ms_mean: None,
         scan_ms_p99: None,
         realtime_factor: None,
+        sketch_pose_median_m: None,
+        sketch_pose_p95_m: None,
+        sketch_pose_within_1m: None,
+        sketch_heading_median_deg: None,
         out_dir: out_dir.to_path_buf(),
     })
 }

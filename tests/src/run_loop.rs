@@ -12,6 +12,7 @@ use crate::metrics::StampedPose;
 use crate::run::{RunResult, sketch_prior};
 use anyhow::Result;
 use sketchslam_engine::mapper::{Mapper, MapperConfig, Method, trajectory_csv};
+use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::SimStep;
 use sketchslam_simulator::scenario::SketchConfig;
 use sketchslam_types::SensorEvent;
@@ -28,6 +29,9 @@ pub struct InProcessRun {
     pub mapping_s: f64,
     /// Engine milliseconds per scan, in scan order.
     pub scan_ms: Vec<f64>,
+    /// `sketch` runs: the pose on the drawing right after each scan (as the service
+    /// publishes it then) with the scan's stamp in seconds, in scan order.
+    pub sketch_poses: Vec<(f64, SketchPose)>,
 }
 
 /// Maps `steps` (a stream of `scan_count` scans) with `method` (and, for `sketch`, the
@@ -60,6 +64,7 @@ pub fn map_in_process(
     let mut truth = Vec::new();
     let mut mapping_s = 0.0;
     let mut scan_ms: Vec<f64> = Vec::new();
+    let mut sketch_poses: Vec<(f64, SketchPose)> = Vec::new();
     for step in steps {
         // The truth does not depend on the mapper: recorded before it runs, outside the
         // timed call.
@@ -73,8 +78,11 @@ pub fn map_in_process(
         mapper.on_event(&step.event);
         let spent_s = started.elapsed().as_secs_f64();
         mapping_s += spent_s;
-        if matches!(step.event, SensorEvent::Scan(_)) {
+        if let SensorEvent::Scan(scan) = &step.event {
             scan_ms.push(spent_s * 1e3);
+            if let Some(on_drawing) = mapper.pose().sketch {
+                sketch_poses.push((scan.header.stamp_ns as f64 * 1e-9, on_drawing));
+            }
             progress(truth.len() as u64, total);
             if truth.len() as u64 >= total {
                 break;
@@ -90,12 +98,32 @@ pub fn map_in_process(
         trajectory_csv(mapper.trajectory()),
     )?;
     sketchslam_simulator::truth::write_truth_csv(&out_dir.join("truth.csv"), &truth)?;
+    if !sketch_poses.is_empty() {
+        std::fs::write(
+            out_dir.join("sketch-trajectory.csv"),
+            sketch_trajectory_csv(&sketch_poses),
+        )?;
+    }
     Ok(InProcessRun {
         mapper,
         truth,
         mapping_s,
         scan_ms,
+        sketch_poses,
     })
+}
+
+/// `sketch-trajectory.csv`: `t,u,v,heading,meters_per_pixel` (seconds, pixels, radians
+/// counter-clockwise from +u as the drawing is seen, meters per pixel), one row per scan.
+pub fn sketch_trajectory_csv(poses: &[(f64, SketchPose)]) -> String {
+    let mut out = String::from("t,u,v,heading,meters_per_pixel\n");
+    for (t_s, p) in poses {
+        out.push_str(&format!(
+            "{t_s:.9},{:.3},{:.3},{:.6},{:.6}\n",
+            p.u_px, p.v_px, p.heading_rad, p.meters_per_pixel
+        ));
+    }
+    out
 }
 
 impl InProcessRun {

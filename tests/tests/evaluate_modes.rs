@@ -6,7 +6,7 @@ use sketchslam_engine::mapper::Method;
 use sketchslam_simulator::scenario::Scenario;
 use sketchslam_tests::processes::bundled_scenario;
 use sketchslam_tests::real_process::run_real_process;
-use sketchslam_tests::run::run_in_process;
+use sketchslam_tests::run::{RunResult, run_in_process};
 
 /// Long enough for MCL, line matching and ICP to have shaped the map.
 const SCANS: u64 = 400;
@@ -16,12 +16,13 @@ const SCANS: u64 = 400;
 const GRAPH_SCANS: u64 = 2600;
 
 /// Maps the first `scans` scans of paper-env1 with `method` in both modes; fails unless
-/// the maps are the same bytes and score the same. Returns the in-process result.
+/// the maps are the same bytes and score the same. Returns the in-process and the
+/// real-process results.
 fn both_modes_agree(
     method: Method,
     sketch_name: Option<&str>,
     scans: u64,
-) -> anyhow::Result<sketchslam_tests::run::RunResult> {
+) -> anyhow::Result<(RunResult, RunResult)> {
     let scenario = Scenario::load(&bundled_scenario("paper-env1"))?;
     let sketch = sketch_name.map(|n| scenario.sketch(n).expect("the sketch is bundled"));
     let out =
@@ -49,13 +50,26 @@ fn both_modes_agree(
         "{method}: map error {:.3} m, completeness {:.3}, {} loops closed",
         a.map_error_m, a.completeness, a.loop_closures
     );
+    for dir in [&a_dir, &b_dir] {
+        assert_eq!(
+            dir.join("sketch-trajectory.csv").is_file(),
+            method == Method::Sketch,
+            "{}",
+            dir.display()
+        );
+    }
     let _ = std::fs::remove_dir_all(&out);
-    Ok(a)
+    Ok((a, b))
 }
 
 #[test]
 fn in_process_and_real_processes_build_the_same_map() -> anyhow::Result<()> {
-    let a = both_modes_agree(Method::Sketch, Some("A"), SCANS)?;
+    let (a, b) = both_modes_agree(Method::Sketch, Some("A"), SCANS)?;
+    // The pose on the drawing is scored in both modes: in-process from the mapper after each
+    // scan, through the processes from the session's live event stream.
+    let (da, db) = (a.sketch_pose_median_m, b.sketch_pose_median_m);
+    assert!(da.is_some() && db.is_some(), "{da:?} {db:?}");
+    assert!((da.unwrap() - db.unwrap()).abs() < 0.05, "{da:?} {db:?}");
     // Generous bounds on the first 20 m of the route (completeness counts the walls the
     // sensor saw in those scans only).
     assert!(a.map_error_m <= 0.25, "map error {}", a.map_error_m);
@@ -65,7 +79,7 @@ fn in_process_and_real_processes_build_the_same_map() -> anyhow::Result<()> {
 
 #[test]
 fn the_graph_baseline_builds_the_same_map_over_http_and_in_process() -> anyhow::Result<()> {
-    let a = both_modes_agree(Method::Graph, None, GRAPH_SCANS)?;
+    let (a, _) = both_modes_agree(Method::Graph, None, GRAPH_SCANS)?;
     assert!(
         a.loop_closures >= 1,
         "no loop closed in {GRAPH_SCANS} scans"

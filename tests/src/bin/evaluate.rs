@@ -266,7 +266,7 @@ fn print_relations(results: &[RunResult]) {
 
 fn print_table(results: &[RunResult]) {
     println!(
-        "{:<12} {:<9} {:<8} {:>7} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>5} {:>5}",
+        "{:<12} {:<9} {:<8} {:>7} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>5} {:>5} {:>8} {:>6}",
         "scenario",
         "method",
         "sketch",
@@ -280,12 +280,14 @@ fn print_table(results: &[RunResult]) {
         "p99 ms",
         "RTF",
         "rec.",
-        "loops"
+        "loops",
+        "drw med",
+        "drw≤1m"
     );
     let opt = |v: Option<f64>, prec: usize| v.map_or("-".to_string(), |v| format!("{v:.prec$}"));
     for r in results {
         println!(
-            "{:<12} {:<9} {:<8} {} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5} {:>5}",
+            "{:<12} {:<9} {:<8} {} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5} {:>5} {:>8} {:>6}",
             r.scenario,
             r.method,
             r.sketch.as_deref().unwrap_or("-"),
@@ -299,7 +301,9 @@ fn print_table(results: &[RunResult]) {
             opt(r.scan_ms_p99, 2),
             opt(r.realtime_factor, 1),
             r.recoveries,
-            r.loop_closures
+            r.loop_closures,
+            opt(r.sketch_pose_median_m, 2),
+            opt(r.sketch_pose_within_1m.map(|w| 100.0 * w), 0)
         );
     }
     if let Some(r) = results.first() {
@@ -311,6 +315,13 @@ fn print_table(results: &[RunResult]) {
         println!(
             "maps (map.pgm + map.yaml) and overlays (overlay.png) under {}",
             root.display()
+        );
+    }
+    if results.iter().any(|r| r.sketch_pose_median_m.is_some()) {
+        println!(
+            "drw med: median error of the pose on the drawing, meters at the drawing's scale; \
+             drw≤1m: % of scans within 1 m of it (truth carried onto the drawing by \
+             sketch-truth.toml; through the processes, the poses the session published live)"
         );
     }
 }
