@@ -131,6 +131,10 @@ pub fn score_dataset_artifacts(
         }
         None => (f64::NAN, Pose2::IDENTITY, &[][..]),
     };
+    let online_ate_rmse_m = match truth {
+        Some(truth) => crate::run::online_ate(out_dir, truth, &alignment)?,
+        None => None,
+    };
     let rel = score_relations(&estimate, relations);
     draw_overlay(&occupied, &estimate, drawn_truth, &alignment)
         .save(out_dir.join("overlay.png"))?;
@@ -139,6 +143,7 @@ pub fn score_dataset_artifacts(
         method: String::new(),
         sketch: None,
         ate_rmse_m,
+        online_ate_rmse_m,
         map_error_m: f64::NAN,
         completeness: f64::NAN,
         rel_trans_m: rel.map(|r| r.trans_mean_m),

@@ -190,6 +190,25 @@ pub fn score_trajectory(
     })
 }
 
+/// The ATE of `estimate` against `truth` moved by a given `alignment` (not fitted to this
+/// estimate): how far the live poses were, in the frame the final trajectory was aligned
+/// with. None without a pose matched by stamp.
+pub fn ate_with_alignment(
+    estimate: &[StampedPose],
+    truth: &[StampedPose],
+    alignment: &Pose2,
+) -> Option<f64> {
+    let pairs = match_by_stamp(estimate, truth);
+    if pairs.is_empty() {
+        return None;
+    }
+    let sq: f64 = pairs
+        .iter()
+        .map(|(p, q)| alignment.transform_point(p).distance(q).powi(2))
+        .sum();
+    Some((sq / pairs.len() as f64).sqrt())
+}
+
 fn tree_of(points: impl Iterator<Item = Point2>) -> KdTree<f64, 2> {
     let mut tree: KdTree<f64, 2> = KdTree::new();
     for (i, p) in points.enumerate() {

@@ -7,8 +7,10 @@
 //! `trajectory.csv` over HTTP and scores them against the simulator's `truth.csv` exactly
 //! as the in-process mode does.
 
+use crate::metrics::StampedPose;
 use crate::metrics::WallGrid;
 use crate::processes::{ChildGuard, binary, unique_prefix};
+use crate::run::ONLINE_TRAJECTORY_FILE;
 use crate::run::{RunResult, Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
 use crate::run_loop::{RunFigures, sketch_trajectory_csv};
 use crate::service_process::{ServiceOptions, ServiceProcess};
@@ -23,6 +25,7 @@ use sketchslam_simulator::simulation::Simulation;
 use sketchslam_simulator::world::World;
 use sketchslam_slam::method::api_method;
 use sketchslam_types::Pose2;
+use sketchslam_types::trajectory_csv::{self, NumberFormat};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -108,6 +111,8 @@ pub struct ProcessRun {
     /// `sketch` sessions: every pose on the drawing the session published live (its event
     /// stream, one per scan; a slow reader may miss some), with its stamp in seconds.
     pub published_sketch_poses: Vec<(f64, SketchPose)>,
+    /// Every map pose the session published live, with its stamp (`online-trajectory.csv`).
+    pub published_poses: Vec<StampedPose>,
 }
 
 impl ProcessRun {
@@ -159,24 +164,26 @@ pub fn map_through_processes(
         (m, _) => baseline_session(ROBOT_ID, api_method(m), Some(source.seed)),
     };
     let session = runtime.block_on(client.create_session(&request))?;
-    // The poses on the drawing as a live client sees them, until the session stops.
-    let recorder = match method {
-        Method::Sketch => {
-            let mut events = runtime.block_on(client.events(&session.id))?;
-            Some(runtime.spawn(async move {
-                let mut poses = Vec::new();
-                while let Ok(Some(event)) = events.next_event().await {
-                    if let SessionEvent::Pose(p) = event
-                        && let (Some(t_s), Some(s)) = (p.stamp, p.sketch)
-                    {
-                        poses.push((t_s, sketch_pose_of(&s)));
-                    }
+    // The poses as a live client sees them (map frame, and on the drawing), until the
+    // session stops.
+    let mut events = runtime.block_on(client.events(&session.id))?;
+    let recorder = runtime.spawn(async move {
+        let (mut poses, mut on_drawing) = (Vec::new(), Vec::new());
+        while let Ok(Some(event)) = events.next_event().await {
+            if let SessionEvent::Pose(p) = event
+                && let Some(t_s) = p.stamp
+            {
+                poses.push(StampedPose {
+                    t_s,
+                    pose: Pose2::new(p.x, p.y, p.theta),
+                });
+                if let Some(s) = &p.sketch {
+                    on_drawing.push((t_s, sketch_pose_of(s)));
                 }
-                poses
-            }))
+            }
         }
-        _ => None,
-    };
+        (poses, on_drawing)
+    });
 
     let total = max_scans.map_or(source.scans, |m| m.min(source.scans));
     let truth_path = out_dir.join("truth.csv");
@@ -238,12 +245,13 @@ pub fn map_through_processes(
     );
     let stopped = runtime.block_on(client.stop_session(&session.id))?;
     // The event stream ends with the session.
-    let published_sketch_poses = match recorder {
-        Some(task) => runtime
-            .block_on(async { tokio::time::timeout(Duration::from_secs(20), task).await })
-            .context("the session's event stream did not end after the stop")??,
-        None => Vec::new(),
-    };
+    let (published_poses, published_sketch_poses) = runtime
+        .block_on(async { tokio::time::timeout(Duration::from_secs(20), recorder).await })
+        .context("the session's event stream did not end after the stop")??;
+    std::fs::write(
+        out_dir.join(ONLINE_TRAJECTORY_FILE),
+        trajectory_csv::write(&published_poses, NumberFormat::Fixed),
+    )?;
     if !published_sketch_poses.is_empty() {
         std::fs::write(
             out_dir.join("sketch-trajectory.csv"),
@@ -272,5 +280,6 @@ pub fn map_through_processes(
         },
         final_pose,
         published_sketch_poses,
+        published_poses,
     })
 }

@@ -79,6 +79,11 @@ pub struct RunResult {
     /// Simulated seconds mapped per second of engine time on one core (in-process runs).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub realtime_factor: Option<f64>,
+    /// ATE of the live trajectory (`online-trajectory.csv`: each scan's pose as the session
+    /// first published it, before later loop closures rewrote it), moved by the alignment of
+    /// the final trajectory, meters.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub online_ate_rmse_m: Option<f64>,
     /// `sketch` runs on a scenario with `sketch-truth.toml`: median error of the pose on the
     /// drawing (after each scan in-process; as published live through the processes),
     /// meters at the drawing's nominal scale.
@@ -217,6 +222,7 @@ pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
     let traj = metrics::score_trajectory(&estimate, &truth.poses)
         .context("the trajectory does not overlap the truth")?;
     let map = metrics::score_map(&occupied, &traj.alignment, &truth.walls, &truth.seen_walls);
+    let online_ate_rmse_m = online_ate(out_dir, &truth.poses, &traj.alignment)?;
     overlay::draw(
         &truth.walls,
         &occupied,
@@ -230,6 +236,7 @@ pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
         method: String::new(),
         sketch: None,
         ate_rmse_m: traj.ate_rmse_m,
+        online_ate_rmse_m,
         map_error_m: map.map_error_m,
         completeness: map.completeness,
         rel_trans_m: None,
@@ -273,6 +280,24 @@ pub fn map_occupied_points(map_yaml: &str, map_pgm: &[u8]) -> Result<Vec<Point2>
 pub fn read_map_occupied_points(out_dir: &Path) -> Result<Vec<Point2>> {
     let yaml = std::fs::read_to_string(out_dir.join("map.yaml"))?;
     map_occupied_points(&yaml, &std::fs::read(out_dir.join("map.pgm"))?)
+}
+
+/// The file of a run's live trajectory (see [`RunResult::online_ate_rmse_m`]).
+pub const ONLINE_TRAJECTORY_FILE: &str = "online-trajectory.csv";
+
+/// The ATE of the run's `online-trajectory.csv`, when it wrote one, under the final
+/// trajectory's `alignment`.
+pub fn online_ate(
+    out_dir: &Path,
+    truth: &[StampedPose],
+    alignment: &sketchslam_types::Pose2,
+) -> Result<Option<f64>> {
+    let path = out_dir.join(ONLINE_TRAJECTORY_FILE);
+    if !path.is_file() {
+        return Ok(None);
+    }
+    let live = read_trajectory_csv(&path)?;
+    Ok(metrics::ate_with_alignment(&live, truth, alignment))
 }
 
 /// Reads a `t,x,y,theta` CSV (trajectory or truth), headings wrapped to (−π, π].

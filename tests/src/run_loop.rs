@@ -9,9 +9,9 @@
 //! processes ([`crate::real_process`]).
 
 use crate::metrics::StampedPose;
-use crate::run::{RunResult, sketch_prior};
+use crate::run::{ONLINE_TRAJECTORY_FILE, RunResult, sketch_prior};
 use anyhow::Result;
-use sketchslam_engine::mapper::{Mapper, MapperConfig, Method, trajectory_csv};
+use sketchslam_engine::mapper::{Mapper, MapperConfig, Method, TrajectoryPoint, trajectory_csv};
 use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::SimStep;
 use sketchslam_simulator::scenario::SketchConfig;
@@ -65,6 +65,8 @@ pub fn map_in_process(
     let mut mapping_s = 0.0;
     let mut scan_ms: Vec<f64> = Vec::new();
     let mut sketch_poses: Vec<(f64, SketchPose)> = Vec::new();
+    // Each scan's pose as the session publishes it then, before later closures move it.
+    let mut live: Vec<TrajectoryPoint> = Vec::new();
     for step in steps {
         // The truth does not depend on the mapper: recorded before it runs, outside the
         // timed call.
@@ -80,7 +82,12 @@ pub fn map_in_process(
         mapping_s += spent_s;
         if let SensorEvent::Scan(scan) = &step.event {
             scan_ms.push(spent_s * 1e3);
-            if let Some(on_drawing) = mapper.pose().sketch {
+            let now = mapper.pose();
+            live.push(TrajectoryPoint {
+                stamp_ns: scan.header.stamp_ns,
+                pose: now.map,
+            });
+            if let Some(on_drawing) = now.sketch {
                 sketch_poses.push((scan.header.stamp_ns as f64 * 1e-9, on_drawing));
             }
             progress(truth.len() as u64, total);
@@ -98,6 +105,7 @@ pub fn map_in_process(
         trajectory_csv(mapper.trajectory()),
     )?;
     sketchslam_simulator::truth::write_truth_csv(&out_dir.join("truth.csv"), &truth)?;
+    std::fs::write(out_dir.join(ONLINE_TRAJECTORY_FILE), trajectory_csv(&live))?;
     if !sketch_poses.is_empty() {
         std::fs::write(
             out_dir.join("sketch-trajectory.csv"),

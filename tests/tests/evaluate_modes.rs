@@ -70,6 +70,10 @@ fn in_process_and_real_processes_build_the_same_map() -> anyhow::Result<()> {
     let (da, db) = (a.sketch_pose_median_m, b.sketch_pose_median_m);
     assert!(da.is_some() && db.is_some(), "{da:?} {db:?}");
     assert!((da.unwrap() - db.unwrap()).abs() < 0.05, "{da:?} {db:?}");
+    // So is the live trajectory, each scan's pose as first published.
+    let (la, lb) = (a.online_ate_rmse_m, b.online_ate_rmse_m);
+    assert!(la.is_some() && lb.is_some(), "{la:?} {lb:?}");
+    assert!((la.unwrap() - lb.unwrap()).abs() < 0.05, "{la:?} {lb:?}");
     // Generous bounds on the first 20 m of the route (completeness counts the walls the
     // sensor saw in those scans only).
     assert!(a.map_error_m <= 0.25, "map error {}", a.map_error_m);

@@ -266,11 +266,12 @@ fn print_relations(results: &[RunResult]) {
 
 fn print_table(results: &[RunResult]) {
     println!(
-        "{:<12} {:<9} {:<8} {:>7} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>5} {:>5} {:>8} {:>6}",
+        "{:<12} {:<9} {:<8} {:>7} {:>8} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>5} {:>5} {:>8} {:>6}",
         "scenario",
         "method",
         "sketch",
         "ATE m",
+        "live m",
         "map err m",
         "compl.",
         "scans",
@@ -287,11 +288,12 @@ fn print_table(results: &[RunResult]) {
     let opt = |v: Option<f64>, prec: usize| v.map_or("-".to_string(), |v| format!("{v:.prec$}"));
     for r in results {
         println!(
-            "{:<12} {:<9} {:<8} {} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5} {:>5} {:>8} {:>6}",
+            "{:<12} {:<9} {:<8} {} {:>8} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5} {:>5} {:>8} {:>6}",
             r.scenario,
             r.method,
             r.sketch.as_deref().unwrap_or("-"),
             num(r.ate_rmse_m, 7, 3),
+            opt(r.online_ate_rmse_m, 3),
             num(r.map_error_m, 9, 3),
             num(r.completeness, 7, 3),
             r.scans,
@@ -317,9 +319,13 @@ fn print_table(results: &[RunResult]) {
             root.display()
         );
     }
-    if results.iter().any(|r| r.sketch_pose_median_m.is_some()) {
+    if results
+        .iter()
+        .any(|r| r.sketch_pose_median_m.is_some() || r.online_ate_rmse_m.is_some())
+    {
         println!(
-            "drw med: median error of the pose on the drawing, meters at the drawing's scale; \
+            "live m: ATE of each scan's pose as first published (before later loop closures), \
+             under the final trajectory's alignment; drw med: median error of the pose on the drawing, meters at the drawing's scale; \
              drw≤1m: % of scans within 1 m of it (truth carried onto the drawing by \
              sketch-truth.toml; through the processes, the poses the session published live)"
         );
