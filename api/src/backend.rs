@@ -12,7 +12,7 @@ use tokio::sync::broadcast;
 use crate::error::ApiError;
 use crate::types::{
     CreateSessionRequest, OccupancyGridResponse, PoseResponse, SessionEvent, SessionInfo,
-    SketchInfo, SketchSummary, TrajectoryResponse,
+    SketchInfo, SketchSummary, SketchTrajectoryResponse, TrajectoryResponse,
 };
 
 /// The operations behind the HTTP API.
@@ -45,6 +45,9 @@ pub trait Backend: Send + Sync + 'static {
     fn pose(&self, id: &str) -> Result<PoseResponse, ApiError>;
     /// The trajectory so far (or final, once stopped).
     fn trajectory(&self, id: &str) -> Result<TrajectoryResponse, ApiError>;
+    /// A `sketch` session's trajectory on the drawing (the pose on the drawing at every
+    /// stamp of [`Backend::trajectory`]); an error for a session without a drawing.
+    fn sketch_trajectory(&self, id: &str) -> Result<SketchTrajectoryResponse, ApiError>;
     /// The map as a PNG (black occupied, white free, grey unknown; north up).
     fn map_png(&self, id: &str) -> Result<Vec<u8>, ApiError>;
     /// The map as the PGM of a ROS map_server pair.

@@ -14,7 +14,7 @@ use thiserror::Error;
 use crate::error::ErrorBody;
 use crate::types::{
     CreateSessionRequest, HealthResponse, OccupancyGridResponse, PoseResponse, SessionEvent,
-    SessionInfo, SessionList, SketchInfo, SketchList, TrajectoryResponse,
+    SessionInfo, SessionList, SketchInfo, SketchList, SketchTrajectoryResponse, TrajectoryResponse,
 };
 
 /// What a client call can fail with.
@@ -221,6 +221,19 @@ impl SketchslamClient {
         Self::text(
             self.request(Method::GET, &format!("/v1/sessions/{}/trajectory", seg(id)))
                 .query(&[("format", "csv")]),
+        )
+        .await
+    }
+
+    /// `GET /v1/sessions/{id}/trajectory?frame=sketch` (a `sketch` session's trajectory on
+    /// the drawing).
+    pub async fn sketch_trajectory(
+        &self,
+        id: &str,
+    ) -> Result<SketchTrajectoryResponse, ClientError> {
+        Self::json(
+            self.request(Method::GET, &format!("/v1/sessions/{}/trajectory", seg(id)))
+                .query(&[("frame", "sketch")]),
         )
         .await
     }

@@ -9,8 +9,8 @@ use crate::router;
 use crate::types::{
     CreateSessionRequest, HealthResponse, MappingMethod, OccupancyGridResponse, PixelPoint,
     Pose2Info, PoseResponse, SessionEvent, SessionInfo, SessionList, SessionState, SketchInfo,
-    SketchLineInfo, SketchList, SketchPoseInfo, SketchStart, SketchSummary, TrajectoryPointInfo,
-    TrajectoryResponse,
+    SketchLineInfo, SketchList, SketchPoseInfo, SketchStart, SketchSummary,
+    SketchTrajectoryPointInfo, SketchTrajectoryResponse, TrajectoryPointInfo, TrajectoryResponse,
 };
 
 /// The sketchslam HTTP API.
@@ -47,7 +47,8 @@ use crate::types::{
         ErrorBody, ErrorDetail, CreateSessionRequest, HealthResponse, MappingMethod,
         OccupancyGridResponse, PixelPoint, Pose2Info, PoseResponse, SessionEvent, SessionInfo,
         SessionList, SessionState, SketchInfo, SketchLineInfo, SketchList, SketchPoseInfo,
-        SketchStart, SketchSummary, TrajectoryPointInfo, TrajectoryResponse,
+        SketchStart, SketchSummary, SketchTrajectoryPointInfo, SketchTrajectoryResponse,
+        TrajectoryPointInfo, TrajectoryResponse,
     )),
     modifiers(&BearerAuth),
     security(("bearer" = [])),

@@ -413,20 +413,25 @@ pub(crate) async fn session_pose(
     call(&state, move |b| b.pose(&id)).await.map(Json)
 }
 
-/// `?format=` of the trajectory.
+/// `?format=` and `?frame=` of the trajectory.
 #[derive(Debug, Deserialize, utoipa::IntoParams)]
 #[into_params(parameter_in = Query)]
 pub(crate) struct TrajectoryQuery {
-    /// `json` (default) or `csv` (`trajectory.csv`, header `t,x,y,theta`).
+    /// `json` (default) or `csv` (`trajectory.csv`, header `t,x,y,theta`; on the drawing
+    /// `sketch-trajectory.csv`, header `t,u,v,heading,meters_per_pixel`).
     format: Option<String>,
+    /// `map` (default: meters, the map frame) or `sketch` (the pose on the drawing, `sketch`
+    /// sessions only).
+    frame: Option<String>,
 }
 
-/// The trajectory, as JSON or as `trajectory.csv`.
+/// The trajectory, as JSON or as CSV, in the map frame or on the drawing.
 #[utoipa::path(get, path = "/v1/sessions/{id}/trajectory", tag = "sessions",
     params(("id" = String, Path, description = "Session id"), TrajectoryQuery),
     responses(
-        (status = 200, description = "Trajectory (JSON, or CSV with ?format=csv)", body = crate::types::TrajectoryResponse),
-        (status = 400, description = "Unknown format", body = ErrorBody),
+        (status = 200, description = "Trajectory (JSON, or CSV with ?format=csv); with ?frame=sketch a SketchTrajectoryResponse", body = crate::types::TrajectoryResponse),
+        (status = 400, description = "Unknown format or frame", body = ErrorBody),
+        (status = 422, description = "frame=sketch on a session without a drawing", body = ErrorBody),
         (status = 404, description = "Unknown id", body = ErrorBody)))]
 pub(crate) async fn session_trajectory(
     State(state): State<AppState>,
@@ -443,6 +448,34 @@ pub(crate) async fn session_trajectory(
             ));
         }
     };
+    let on_drawing = match query.frame.as_deref() {
+        None | Some("map") => false,
+        Some("sketch") => true,
+        Some(other) => {
+            return Err(ApiError::bad_request(
+                "invalid_query",
+                format!("frame: {other:?} is not one of \"map\", \"sketch\""),
+            ));
+        }
+    };
+    if on_drawing {
+        let trajectory = call(&state, move |b| b.sketch_trajectory(&id)).await?;
+        return Ok(if csv {
+            (
+                [
+                    (header::CONTENT_TYPE, "text/csv; charset=utf-8"),
+                    (
+                        header::CONTENT_DISPOSITION,
+                        "attachment; filename=\"sketch-trajectory.csv\"",
+                    ),
+                ],
+                trajectory.to_csv(),
+            )
+                .into_response()
+        } else {
+            Json(trajectory).into_response()
+        });
+    }
     let trajectory = call(&state, move |b| b.trajectory(&id)).await?;
     if csv {
         Ok((

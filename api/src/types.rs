@@ -335,6 +335,49 @@ pub struct PoseResponse {
     pub localization_score: f64,
 }
 
+/// One pose of a `sketch` session's trajectory on the drawing.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct SketchTrajectoryPointInfo {
+    /// Stamp, seconds.
+    pub t: f64,
+    /// Column on the drawing, pixels from the left edge.
+    pub u: f64,
+    /// Row on the drawing, pixels from the top edge.
+    pub v: f64,
+    /// Heading on the drawing, radians counter-clockwise from +u as the drawing is seen.
+    pub heading: f64,
+    /// The drawing's estimated scale there, meters per pixel.
+    pub meters_per_pixel: f64,
+    /// What gave the pose: `mcl` (localization on the drawing, at a scan) or `odometry`
+    /// (MCL's last estimate carried forward between scans).
+    #[schema(example = "mcl")]
+    pub source: String,
+}
+
+/// `GET /v1/sessions/{id}/trajectory?frame=sketch`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct SketchTrajectoryResponse {
+    /// The session.
+    pub session_id: String,
+    /// One pose per stamp of the map-frame trajectory, in stamp order.
+    pub points: Vec<SketchTrajectoryPointInfo>,
+}
+
+impl SketchTrajectoryResponse {
+    /// The trajectory on the drawing as `sketch-trajectory.csv`: header
+    /// `t,u,v,heading,meters_per_pixel` (seconds, pixels, radians, meters per pixel).
+    pub fn to_csv(&self) -> String {
+        let mut out = String::from("t,u,v,heading,meters_per_pixel\n");
+        for p in &self.points {
+            out.push_str(&format!(
+                "{:.9},{:.3},{:.3},{:.6},{:.6}\n",
+                p.t, p.u, p.v, p.heading, p.meters_per_pixel
+            ));
+        }
+        out
+    }
+}
+
 /// One pose of a trajectory.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct TrajectoryPointInfo {

@@ -276,6 +276,33 @@ async fn session_lifecycle_and_per_session_endpoints() {
     get(&h.app, &format!("/v1/sessions/{id}/trajectory?format=xml"))
         .await
         .error(StatusCode::BAD_REQUEST, "invalid_query");
+    // The same trajectory on the drawing, with each pose's source.
+    let on_drawing = get(
+        &h.app,
+        &format!("/v1/sessions/{id}/trajectory?frame=sketch"),
+    )
+    .await;
+    assert_eq!(on_drawing.status, StatusCode::OK, "{}", on_drawing.text());
+    let points = on_drawing.json()["points"].as_array().unwrap().clone();
+    assert_eq!(points.len(), 2);
+    for key in ["t", "u", "v", "heading", "meters_per_pixel", "source"] {
+        assert!(points[0].get(key).is_some(), "point lacks {key}");
+    }
+    assert_eq!(points[1]["source"], "odometry");
+    let csv = get(
+        &h.app,
+        &format!("/v1/sessions/{id}/trajectory?frame=sketch&format=csv"),
+    )
+    .await;
+    let text = csv.text();
+    assert_eq!(text.lines().next(), Some("t,u,v,heading,meters_per_pixel"));
+    assert_eq!(
+        text.lines().nth(1),
+        Some("0.000000000,66.900,320.300,0.020000,0.100000")
+    );
+    get(&h.app, &format!("/v1/sessions/{id}/trajectory?frame=world"))
+        .await
+        .error(StatusCode::BAD_REQUEST, "invalid_query");
 
     let png = get(&h.app, &format!("/v1/sessions/{id}/map.png")).await;
     assert_eq!(
@@ -510,6 +537,13 @@ async fn baseline_sessions_need_no_sketch_and_a_robot_maps_once() {
     .await;
     assert_eq!(graph.status, StatusCode::CREATED, "{}", graph.text());
     assert_eq!(graph.json()["method"], "graph");
+    let graph_id = graph.json()["id"].as_str().unwrap().to_string();
+    get(
+        &h.app,
+        &format!("/v1/sessions/{graph_id}/trajectory?frame=sketch"),
+    )
+    .await
+    .error(StatusCode::UNPROCESSABLE_ENTITY, "no_drawing");
 }
 
 #[tokio::test]

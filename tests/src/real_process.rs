@@ -12,7 +12,7 @@ use crate::metrics::WallGrid;
 use crate::processes::{ChildGuard, binary, unique_prefix};
 use crate::run::ONLINE_TRAJECTORY_FILE;
 use crate::run::{RunResult, Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
-use crate::run_loop::{RunFigures, sketch_trajectory_csv};
+use crate::run_loop::RunFigures;
 use crate::service_process::{ServiceOptions, ServiceProcess};
 use crate::session_request::{baseline_session, sketch_session};
 use crate::sketch_truth::fill_sketch_pose_scores;
@@ -108,8 +108,8 @@ pub struct ProcessRun {
     pub figures: RunFigures,
     /// The session's last pose: map frame, and on the drawing (`sketch` sessions).
     pub final_pose: (Pose2, Option<SketchPose>),
-    /// `sketch` sessions: every pose on the drawing the session published live (its event
-    /// stream, one per scan; a slow reader may miss some), with its stamp in seconds.
+    /// `sketch` sessions: the session's pose on the drawing at each scan (its trajectory on
+    /// the drawing, `GET …/trajectory?frame=sketch`, the points MCL gave), stamp in seconds.
     pub published_sketch_poses: Vec<(f64, SketchPose)>,
     /// Every map pose the session published live, with its stamp (`online-trajectory.csv`).
     pub published_poses: Vec<StampedPose>,
@@ -168,7 +168,7 @@ pub fn map_through_processes(
     // session stops.
     let mut events = runtime.block_on(client.events(&session.id))?;
     let recorder = runtime.spawn(async move {
-        let (mut poses, mut on_drawing) = (Vec::new(), Vec::new());
+        let mut poses = Vec::new();
         while let Ok(Some(event)) = events.next_event().await {
             if let SessionEvent::Pose(p) = event
                 && let Some(t_s) = p.stamp
@@ -177,12 +177,9 @@ pub fn map_through_processes(
                     t_s,
                     pose: Pose2::new(p.x, p.y, p.theta),
                 });
-                if let Some(s) = &p.sketch {
-                    on_drawing.push((t_s, sketch_pose_of(s)));
-                }
             }
         }
-        (poses, on_drawing)
+        poses
     });
 
     let total = max_scans.map_or(source.scans, |m| m.min(source.scans));
@@ -245,18 +242,31 @@ pub fn map_through_processes(
     );
     let stopped = runtime.block_on(client.stop_session(&session.id))?;
     // The event stream ends with the session.
-    let (published_poses, published_sketch_poses) = runtime
+    let published_poses = runtime
         .block_on(async { tokio::time::timeout(Duration::from_secs(20), recorder).await })
         .context("the session's event stream did not end after the stop")??;
     std::fs::write(
         out_dir.join(ONLINE_TRAJECTORY_FILE),
         trajectory_csv::write(&published_poses, NumberFormat::Fixed),
     )?;
-    if !published_sketch_poses.is_empty() {
-        std::fs::write(
-            out_dir.join("sketch-trajectory.csv"),
-            sketch_trajectory_csv(&published_sketch_poses),
-        )?;
+    let mut published_sketch_poses = Vec::new();
+    if method == Method::Sketch {
+        let on_drawing = runtime.block_on(client.sketch_trajectory(&session.id))?;
+        std::fs::write(out_dir.join("sketch-trajectory.csv"), on_drawing.to_csv())?;
+        published_sketch_poses = on_drawing
+            .points
+            .iter()
+            .filter(|p| p.source == "mcl")
+            .map(|p| {
+                let pose = SketchPose {
+                    u_px: p.u,
+                    v_px: p.v,
+                    heading_rad: p.heading,
+                    meters_per_pixel: p.meters_per_pixel,
+                };
+                (p.t, pose)
+            })
+            .collect();
     }
     std::fs::write(
         out_dir.join("map.pgm"),

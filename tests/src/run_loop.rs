@@ -106,10 +106,16 @@ pub fn map_in_process(
     )?;
     sketchslam_simulator::truth::write_truth_csv(&out_dir.join("truth.csv"), &truth)?;
     std::fs::write(out_dir.join(ONLINE_TRAJECTORY_FILE), trajectory_csv(&live))?;
-    if !sketch_poses.is_empty() {
+    if method == Method::Sketch {
+        // The whole trajectory on the drawing, as the service serves it at `?frame=sketch`.
+        let rows: Vec<(f64, SketchPose)> = mapper
+            .drawing_trajectory()
+            .iter()
+            .map(|p| (p.stamp_ns as f64 * 1e-9, p.pose))
+            .collect();
         std::fs::write(
             out_dir.join("sketch-trajectory.csv"),
-            sketch_trajectory_csv(&sketch_poses),
+            sketch_trajectory_csv(&rows),
         )?;
     }
     Ok(InProcessRun {
@@ -122,7 +128,8 @@ pub fn map_in_process(
 }
 
 /// `sketch-trajectory.csv`: `t,u,v,heading,meters_per_pixel` (seconds, pixels, radians
-/// counter-clockwise from +u as the drawing is seen, meters per pixel), one row per scan.
+/// counter-clockwise from +u as the drawing is seen, meters per pixel), one row per stamp;
+/// the same bytes as the API's `SketchTrajectoryResponse::to_csv`.
 pub fn sketch_trajectory_csv(poses: &[(f64, SketchPose)]) -> String {
     let mut out = String::from("t,u,v,heading,meters_per_pixel\n");
     for (t_s, p) in poses {

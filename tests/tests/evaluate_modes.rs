@@ -58,6 +58,13 @@ fn both_modes_agree(
             dir.display()
         );
     }
+    if method == Method::Sketch {
+        // The service's trajectory on the drawing is the in-process mapper's, byte for byte.
+        assert_eq!(
+            std::fs::read(a_dir.join("sketch-trajectory.csv"))?,
+            std::fs::read(b_dir.join("sketch-trajectory.csv"))?
+        );
+    }
     let _ = std::fs::remove_dir_all(&out);
     Ok((a, b))
 }
@@ -69,7 +76,7 @@ fn in_process_and_real_processes_build_the_same_map() -> anyhow::Result<()> {
     // scan, through the processes from the session's live event stream.
     let (da, db) = (a.sketch_pose_median_m, b.sketch_pose_median_m);
     assert!(da.is_some() && db.is_some(), "{da:?} {db:?}");
-    assert!((da.unwrap() - db.unwrap()).abs() < 0.05, "{da:?} {db:?}");
+    assert_eq!(da, db);
     // So is the live trajectory, each scan's pose as first published.
     let (la, lb) = (a.online_ate_rmse_m, b.online_ate_rmse_m);
     assert!(la.is_some() && lb.is_some(), "{la:?} {lb:?}");

@@ -227,6 +227,28 @@ impl Backend for Fake {
         })
     }
 
+    fn sketch_trajectory(&self, id: &str) -> Result<SketchTrajectoryResponse, ApiError> {
+        let info = self.session(id)?;
+        if info.method != MappingMethod::Sketch {
+            return Err(ApiError::invalid(
+                "no_drawing",
+                format!("session {id} maps without a drawing"),
+            ));
+        }
+        let point = |t: f64, source: &str| SketchTrajectoryPointInfo {
+            t,
+            u: 66.9 + 10.0 * t,
+            v: 320.3,
+            heading: 0.02,
+            meters_per_pixel: 0.1,
+            source: source.into(),
+        };
+        Ok(SketchTrajectoryResponse {
+            session_id: id.to_string(),
+            points: vec![point(0.0, "mcl"), point(0.025, "odometry")],
+        })
+    }
+
     fn map_png(&self, id: &str) -> Result<Vec<u8>, ApiError> {
         self.session(id)?;
         Ok(PNG_MAGIC.to_vec())

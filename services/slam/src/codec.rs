@@ -6,10 +6,11 @@
 
 use sketchslam_api::{
     ApiError, OccupancyGridResponse, PixelPoint, Pose2Info, PoseResponse, SketchInfo,
-    SketchLineInfo, SketchPoseInfo, TrajectoryPointInfo, TrajectoryResponse,
+    SketchLineInfo, SketchPoseInfo, SketchTrajectoryPointInfo, SketchTrajectoryResponse,
+    TrajectoryPointInfo, TrajectoryResponse,
 };
 use sketchslam_engine::EngineError;
-use sketchslam_engine::mapper::{Health, PoseEstimate, TrajectoryPoint};
+use sketchslam_engine::mapper::{DrawingPoint, Health, PoseEstimate, TrajectoryPoint};
 use sketchslam_engine::mapping::grid::OccupancyGrid;
 use sketchslam_engine::sketch::Sketch;
 use sketchslam_types::trajectory_csv;
@@ -73,6 +74,38 @@ pub fn trajectory_response(session_id: &str, points: &[TrajectoryPoint]) -> Traj
             })
             .collect(),
     }
+}
+
+/// The API's trajectory on the drawing of a `sketch` session's drawing points.
+pub fn sketch_trajectory_response(
+    session_id: &str,
+    points: &[DrawingPoint],
+) -> SketchTrajectoryResponse {
+    SketchTrajectoryResponse {
+        session_id: session_id.to_string(),
+        points: points
+            .iter()
+            .map(|p| SketchTrajectoryPointInfo {
+                t: p.stamp_ns as f64 * 1e-9,
+                u: p.pose.u_px,
+                v: p.pose.v_px,
+                heading: p.pose.heading_rad,
+                meters_per_pixel: p.pose.meters_per_pixel,
+                source: p.source.as_str().to_string(),
+            })
+            .collect(),
+    }
+}
+
+/// The error for `?frame=sketch` on a session that maps without a drawing.
+pub fn no_drawing(session_id: &str, method: &str) -> ApiError {
+    ApiError::invalid(
+        "no_drawing",
+        format!(
+            "session {session_id} maps with method {method:?}, without a drawing: \
+             only sketch sessions have a trajectory on the drawing"
+        ),
+    )
 }
 
 /// The API's description of a stored sketch: its metadata and extracted lines.

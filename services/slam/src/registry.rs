@@ -11,13 +11,16 @@ use std::sync::{Arc, Mutex};
 use axum::body::Bytes;
 use sketchslam_api::{
     ApiError, Backend, CreateSessionRequest, MappingMethod, OccupancyGridResponse, PoseResponse,
-    SessionEvent, SessionInfo, SessionState, SketchInfo, SketchSummary, TrajectoryResponse,
+    SessionEvent, SessionInfo, SessionState, SketchInfo, SketchSummary, SketchTrajectoryResponse,
+    TrajectoryResponse,
 };
 use sketchslam_ipc::IpcConfig;
 use tokio::sync::broadcast;
 
 use super::RuntimeError;
-use super::codec::{image_error, occupancy_response, sketch_info, stored_trajectory_response};
+use super::codec::{
+    image_error, no_drawing, occupancy_response, sketch_info, stored_trajectory_response,
+};
 use super::config::RegistryConfig;
 use super::method::engine_method;
 use super::metrics::{Histogram, render_metrics};
@@ -390,6 +393,21 @@ impl Backend for Registry {
             Err(_) => {
                 let csv = self.stored_file(id, "trajectory.csv")?;
                 stored_trajectory_response(id, &String::from_utf8_lossy(&csv))
+            }
+        }
+    }
+
+    fn sketch_trajectory(&self, id: &str) -> Result<SketchTrajectoryResponse, ApiError> {
+        match self.live(id)? {
+            Ok(s) => s.sketch_trajectory(),
+            Err(meta) => {
+                if meta.info.method != MappingMethod::Sketch {
+                    return Err(no_drawing(id, meta.info.method.as_str()));
+                }
+                let json = self.stored_file(id, "sketch-trajectory.json")?;
+                serde_json::from_slice(&json).map_err(|e| {
+                    ApiError::internal(format!("sketch-trajectory.json of session {id}: {e}"))
+                })
             }
         }
     }

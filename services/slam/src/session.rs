@@ -19,17 +19,20 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use sketchslam_api::{
-    ApiError, PoseResponse, SessionEvent, SessionInfo, SessionState, TrajectoryResponse,
+    ApiError, PoseResponse, SessionEvent, SessionInfo, SessionState, SketchTrajectoryResponse,
+    TrajectoryResponse,
 };
 use sketchslam_ipc::IpcConfig;
 use sketchslam_types::SensorEvent;
 use tokio::sync::broadcast;
 
-use super::codec::{occupancy_response, pose_response, trajectory_response};
+use super::codec::{
+    no_drawing, occupancy_response, pose_response, sketch_trajectory_response, trajectory_response,
+};
 use super::intake::{Intake, IntakeMsg};
 use super::metrics::Histogram;
 use super::storage::{SessionFiles, SessionMeta};
-use sketchslam_engine::mapper::{Mapper, trajectory_csv};
+use sketchslam_engine::mapper::{Mapper, Method, trajectory_csv};
 use sketchslam_engine::mapping::grid::OccupancyGrid;
 
 /// Capacity of a session's event broadcast; a slower SSE client skips events.
@@ -160,6 +163,15 @@ impl Session {
         trajectory_response(&self.id, &points)
     }
 
+    /// The trajectory on the drawing so far (`sketch` sessions; an error for the others).
+    pub fn sketch_trajectory(&self) -> Result<SketchTrajectoryResponse, ApiError> {
+        let m = lock(&self.mapper);
+        if m.method() != Method::Sketch {
+            return Err(no_drawing(&self.id, m.method().as_str()));
+        }
+        Ok(sketch_trajectory_response(&self.id, m.drawing_trajectory()))
+    }
+
     /// A copy of the map so far (rendering happens outside the mapper's lock). After a
     /// loop closure it waits for the mapper thread to rebuild the map (up to [`MAP_WAIT`]).
     pub fn grid(&self) -> OccupancyGrid {
@@ -187,13 +199,15 @@ impl Session {
                 tracing::error!(session = %self.id, "the mapper thread panicked");
             }
         }
-        let (grid, points, pose) = {
+        let (grid, points, pose, on_drawing) = {
             // The mapper thread rebuilt the map when the intake hung up.
             let m = lock(&self.mapper);
             (
                 m.grid_as_built().clone(),
                 m.trajectory().to_vec(),
                 pose_response(&self.id, &m.pose(), &m.health()),
+                (m.method() == Method::Sketch)
+                    .then(|| sketch_trajectory_response(&self.id, m.drawing_trajectory())),
             )
         };
         *lock(&self.shared.pose) = pose.clone();
@@ -214,6 +228,7 @@ impl Session {
             map_png: grid.to_png(),
             map_json,
             trajectory_csv: trajectory_csv(&points),
+            sketch_trajectory_json: on_drawing.and_then(|t| serde_json::to_vec(&t).ok()),
         };
         tracing::info!(
             session = %self.id,

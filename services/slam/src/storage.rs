@@ -50,6 +50,8 @@ pub struct SessionFiles {
     pub map_json: Vec<u8>,
     /// `trajectory.csv`.
     pub trajectory_csv: String,
+    /// `sketch-trajectory.json` (the API's trajectory on the drawing; `sketch` sessions).
+    pub sketch_trajectory_json: Option<Vec<u8>>,
 }
 
 /// The data dir.
@@ -161,6 +163,9 @@ impl Storage {
         write_atomic(&dir.join("map.png"), &files.map_png)?;
         write_atomic(&dir.join("map.json"), &files.map_json)?;
         write_atomic(&dir.join("trajectory.csv"), files.trajectory_csv.as_bytes())?;
+        if let Some(json) = &files.sketch_trajectory_json {
+            write_atomic(&dir.join("sketch-trajectory.json"), json)?;
+        }
         let json = serde_json::to_vec_pretty(meta).map_err(io::Error::other)?;
         write_atomic(&dir.join("meta.json"), &json)
     }

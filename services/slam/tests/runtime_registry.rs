@@ -229,6 +229,89 @@ fn sketches_are_ingested_and_starts_validated() {
 }
 
 #[test]
+fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
+    let dir = TempDir::new();
+    let prefix = unique_prefix();
+    let reg = registry(&dir.0, &prefix);
+    let sketch = reg
+        .create_sketch(Some("A".into()), Bytes::from(sketch_a()))
+        .unwrap();
+    let session = reg
+        .create_session(CreateSessionRequest {
+            robot_id: "drawn".into(),
+            method: MappingMethod::Sketch,
+            sketch_id: Some(sketch.id.clone()),
+            start: Some(SketchStart {
+                u: 66.9,
+                v: 320.3,
+                heading_deg: 1.1,
+            }),
+            meters_per_pixel: Some(0.1),
+            seed: None,
+        })
+        .unwrap();
+    let baseline = reg
+        .create_session(CreateSessionRequest {
+            robot_id: "plain".into(),
+            method: MappingMethod::Graph,
+            sketch_id: None,
+            start: None,
+            meters_per_pixel: None,
+            seed: None,
+        })
+        .unwrap();
+    let id = session.id.clone();
+    let ipc = IpcConfig::new(&prefix).unwrap();
+    {
+        let mut publisher = RobotPublisher::new(&ipc, "drawn", Delivery::lock_step()).unwrap();
+        assert!(
+            publisher
+                .wait_for_subscribers(1, Duration::from_secs(10))
+                .unwrap()
+        );
+        publish_run(&mut publisher, 0, 20, 0.0);
+        wait_for("20 scans", Duration::from_secs(20), || {
+            reg.get_session(&id).unwrap().scans_processed == 20
+        });
+    }
+    // One pose on the drawing per stamp of the map-frame trajectory, MCL's at the scans.
+    let live = reg.sketch_trajectory(&id).unwrap();
+    assert_eq!(live.points.len(), reg.trajectory(&id).unwrap().points.len());
+    assert!(live.points.iter().filter(|p| p.source == "mcl").count() >= 20);
+    assert!(
+        live.points
+            .iter()
+            .all(|p| p.u.is_finite() && p.meters_per_pixel > 0.0)
+    );
+    // Without a drawing there is none, running or stopped.
+    let plain = &baseline.id;
+    assert_eq!(
+        code(reg.sketch_trajectory(plain).unwrap_err()),
+        "no_drawing"
+    );
+    reg.stop_session(plain).unwrap();
+    assert_eq!(
+        code(reg.sketch_trajectory(plain).unwrap_err()),
+        "no_drawing"
+    );
+
+    reg.stop_session(&id).unwrap();
+    let stopped = reg.sketch_trajectory(&id).unwrap();
+    assert_eq!(stopped, live);
+    reg.shutdown();
+    drop(reg);
+    // Stored with the session, served the same after a restart.
+    let reg = registry(&dir.0, &prefix);
+    assert_eq!(reg.sketch_trajectory(&id).unwrap(), live);
+    assert!(
+        dir.0
+            .join(format!("sessions/{id}/sketch-trajectory.json"))
+            .is_file()
+    );
+    reg.shutdown();
+}
+
+#[test]
 fn a_session_maps_counts_gaps_and_survives_a_restart() {
     let dir = TempDir::new();
     let prefix = unique_prefix();

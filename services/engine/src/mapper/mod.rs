@@ -47,12 +47,15 @@ pub use config::{IcpReference, MapperConfig, SketchPrior};
 pub use frame::ScanFrame;
 pub use front_end_io::{FrontEndInput, FrontEndOutput, SketchReport};
 pub use method::Method;
-pub use output::{Health, PoseEstimate, TrajectoryPoint, trajectory_csv};
+pub use output::{
+    DrawingPoint, DrawingPoseSource, Health, PoseEstimate, TrajectoryPoint, trajectory_csv,
+};
 
 use crate::EngineError;
 use crate::back_end::heading_prior::WallHeadingPrior;
 use crate::back_end::loop_closure::LoopCloser;
 use crate::mapping::grid::OccupancyGrid;
+use crate::sketch::SketchPose;
 use front_end::FrontEnd;
 use keyframe_icp::KeyframeIcp;
 use sketch_front_end::SketchFrontEnd;
@@ -108,6 +111,8 @@ pub struct Mapper {
     map_at_fix: Pose2,
     stamp_ns: u64,
     trajectory: Vec<TrajectoryPoint>,
+    /// `sketch` sessions: the pose on the drawing at every trajectory stamp.
+    drawing_trajectory: Vec<DrawingPoint>,
     health: Health,
     /// Per trajectory point: its keyframe and its pose relative to it (`None` before the
     /// first keyframe, or without loop closure).
@@ -177,6 +182,7 @@ impl Mapper {
             map_at_fix: start_pose,
             stamp_ns: 0,
             trajectory: Vec::new(),
+            drawing_trajectory: Vec::new(),
             health: Health::default(),
             trajectory_anchors: Vec::new(),
             scan_log: Vec::new(),
@@ -217,6 +223,13 @@ impl Mapper {
         self.stamp_ns = self.stamp_ns.max(odom.stamp_ns);
         let current = self.current_map_pose();
         self.push_trajectory(odom.stamp_ns, current);
+        if let Some(at_scan) = self.front_end.sketch_pose() {
+            // Between scans MCL does not move: its estimate at the last scan, carried by
+            // the odometry since (with the drawing's scale at that pose).
+            let d = self.odom_at_fix.between(&pose);
+            let carried = at_scan.advanced(d.x, d.y, d.heading_rad);
+            self.push_drawing(odom.stamp_ns, carried, DrawingPoseSource::Odometry);
+        }
     }
 
     /// Feeds a scan: the front end gives its pose, the back end may correct the map, and
@@ -269,6 +282,31 @@ impl Mapper {
         }
         self.health.scans_processed += 1;
         self.push_trajectory(scan.header.stamp_ns, corrected);
+        if let Some(report) = output.sketch {
+            self.push_drawing(
+                scan.header.stamp_ns,
+                report.sketch_pose,
+                DrawingPoseSource::Mcl,
+            );
+        }
+    }
+
+    /// Appends a pose on the drawing, one per stamp as [`Mapper::push_trajectory`] does (a
+    /// scan's MCL estimate replaces the carried pose of its stamp).
+    fn push_drawing(&mut self, stamp_ns: u64, pose: SketchPose, source: DrawingPoseSource) {
+        if !(pose.u_px.is_finite() && pose.v_px.is_finite() && pose.heading_rad.is_finite()) {
+            return;
+        }
+        let point = DrawingPoint {
+            stamp_ns,
+            pose,
+            source,
+        };
+        match self.drawing_trajectory.last_mut() {
+            Some(last) if last.stamp_ns == stamp_ns => *last = point,
+            Some(last) if last.stamp_ns > stamp_ns => {}
+            _ => self.drawing_trajectory.push(point),
+        }
     }
 
     /// Hands the scan to the back end as a keyframe when one is due; when the back end
@@ -361,6 +399,12 @@ impl Mapper {
     /// Every pose so far, one per odometry message and scan, in stamp order.
     pub fn trajectory(&self) -> &[TrajectoryPoint] {
         &self.trajectory
+    }
+
+    /// `sketch` sessions: the pose on the drawing at every stamp of the trajectory so far
+    /// (empty for the other methods). Not moved by loop closures: it is MCL's.
+    pub fn drawing_trajectory(&self) -> &[DrawingPoint] {
+        &self.drawing_trajectory
     }
 
     /// Corrections of the back end so far (0 without loop closure): a map or a reference
@@ -646,5 +690,40 @@ mod tests {
         assert!(graph_m < 0.1, "graph ends {graph_m:.3} m off");
         assert!(graph_m < icp_m, "graph {graph_m:.3} m, icp {icp_m:.3} m");
         assert_eq!("graph".parse::<Method>().unwrap(), Method::Graph);
+    }
+
+    #[test]
+    fn the_pose_on_the_drawing_is_kept_at_every_stamp_with_its_source() {
+        let (mut m, truth) = drive_laps(Method::Sketch, MapperConfig::default(), |_, _| {});
+        // Odometry and scans share their stamps here: every drawing pose is MCL's.
+        assert_eq!(m.drawing_trajectory().len(), truth.len());
+        assert!(
+            m.drawing_trajectory()
+                .iter()
+                .all(|p| p.source == DrawingPoseSource::Mcl)
+        );
+        let last = *m.drawing_trajectory().last().unwrap();
+        // Between scans, MCL's last estimate is carried by the odometry: 0.5 m forward at
+        // 0.05 m per pixel is 10 px along the drawing heading.
+        let stamp_ns = last.stamp_ns + 50_000_000;
+        let at_scan = m.odom_at_fix;
+        let ahead = at_scan.compose(&Pose2::new(0.5, 0.0, 0.0));
+        m.on_odometry(&Odometry {
+            sequence: 10_000,
+            stamp_ns,
+            x_m: ahead.x,
+            y_m: ahead.y,
+            theta_rad: ahead.heading_rad,
+        });
+        let carried = *m.drawing_trajectory().last().unwrap();
+        assert_eq!(carried.stamp_ns, stamp_ns);
+        assert_eq!(carried.source, DrawingPoseSource::Odometry);
+        let step_px =
+            (carried.pose.u_px - last.pose.u_px).hypot(carried.pose.v_px - last.pose.v_px);
+        let expected_px = 0.5 / last.pose.meters_per_pixel;
+        assert!((step_px - expected_px).abs() < 1e-6, "{step_px} px");
+        // The baselines have no drawing.
+        let (icp, _) = drive_laps(Method::Icp, MapperConfig::default(), |_, _| {});
+        assert!(icp.drawing_trajectory().is_empty());
     }
 }

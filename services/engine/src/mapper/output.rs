@@ -35,6 +35,38 @@ impl TrajectoryPoint {
     }
 }
 
+/// What gave a pose on the drawing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DrawingPoseSource {
+    /// MCL on the drawing, at a scan.
+    Mcl,
+    /// MCL's estimate at the last scan carried forward by the odometry since (between scans).
+    Odometry,
+}
+
+impl DrawingPoseSource {
+    /// The source's name, as the API writes it.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            DrawingPoseSource::Mcl => "mcl",
+            DrawingPoseSource::Odometry => "odometry",
+        }
+    }
+}
+
+/// One pose of a `sketch` session's trajectory on the drawing (beside the map-frame
+/// [`TrajectoryPoint`] of the same stamp).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DrawingPoint {
+    /// Stamp, nanoseconds.
+    pub stamp_ns: u64,
+    /// Pose and scale on the drawing.
+    pub pose: SketchPose,
+    /// What gave it.
+    pub source: DrawingPoseSource,
+}
+
 /// How well the session is doing.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Health {
