@@ -327,7 +327,7 @@ fn print_table(results: &[RunResult]) {
             "live m: ATE of each scan's pose as first published (before later loop closures), \
              under the final trajectory's alignment; drw med: median error of the pose on the drawing, meters at the drawing's scale; \
              drw≤1m: % of scans within 1 m of it (truth carried onto the drawing by \
-             sketch-truth.toml; through the processes, the poses the session published live)"
+             sketch-truth.toml; through the processes, the session's trajectory on the drawing)"
         );
     }
 }
