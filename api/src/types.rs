@@ -9,6 +9,7 @@
 
 use serde::{Deserialize, Serialize};
 use sketchslam_types::Pose2;
+use sketchslam_types::sketch_trajectory_csv::{self, DrawingRow};
 use sketchslam_types::trajectory_csv::{self, NumberFormat, StampedPose};
 use utoipa::ToSchema;
 
@@ -367,14 +368,18 @@ impl SketchTrajectoryResponse {
     /// The trajectory on the drawing as `sketch-trajectory.csv`: header
     /// `t,u,v,heading,meters_per_pixel` (seconds, pixels, radians, meters per pixel).
     pub fn to_csv(&self) -> String {
-        let mut out = String::from("t,u,v,heading,meters_per_pixel\n");
-        for p in &self.points {
-            out.push_str(&format!(
-                "{:.9},{:.3},{:.3},{:.6},{:.6}\n",
-                p.t, p.u, p.v, p.heading, p.meters_per_pixel
-            ));
-        }
-        out
+        let rows: Vec<DrawingRow> = self
+            .points
+            .iter()
+            .map(|p| DrawingRow {
+                t_s: p.t,
+                u_px: p.u,
+                v_px: p.v,
+                heading_rad: p.heading,
+                meters_per_pixel: p.meters_per_pixel,
+            })
+            .collect();
+        sketch_trajectory_csv::write(&rows)
     }
 }
 

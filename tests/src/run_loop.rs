@@ -16,6 +16,7 @@ use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::SimStep;
 use sketchslam_simulator::scenario::SketchConfig;
 use sketchslam_types::SensorEvent;
+use sketchslam_types::sketch_trajectory_csv::{self, DrawingRow};
 use std::path::Path;
 use std::time::Instant;
 
@@ -128,17 +129,21 @@ pub fn map_in_process(
 }
 
 /// `sketch-trajectory.csv`: `t,u,v,heading,meters_per_pixel` (seconds, pixels, radians
-/// counter-clockwise from +u as the drawing is seen, meters per pixel), one row per stamp;
-/// the same bytes as the API's `SketchTrajectoryResponse::to_csv`.
+/// counter-clockwise from +u as the drawing is seen, meters per pixel), one row per stamp,
+/// through the one codec ([`sketchslam_types::sketch_trajectory_csv`]) the API's
+/// `SketchTrajectoryResponse::to_csv` uses.
 pub fn sketch_trajectory_csv(poses: &[(f64, SketchPose)]) -> String {
-    let mut out = String::from("t,u,v,heading,meters_per_pixel\n");
-    for (t_s, p) in poses {
-        out.push_str(&format!(
-            "{t_s:.9},{:.3},{:.3},{:.6},{:.6}\n",
-            p.u_px, p.v_px, p.heading_rad, p.meters_per_pixel
-        ));
-    }
-    out
+    let rows: Vec<DrawingRow> = poses
+        .iter()
+        .map(|(t_s, p)| DrawingRow {
+            t_s: *t_s,
+            u_px: p.u_px,
+            v_px: p.v_px,
+            heading_rad: p.heading_rad,
+            meters_per_pixel: p.meters_per_pixel,
+        })
+        .collect();
+    sketch_trajectory_csv::write(&rows)
 }
 
 impl InProcessRun {

@@ -9,6 +9,7 @@
 pub mod geometry;
 pub mod messages;
 pub mod names;
+pub mod sketch_trajectory_csv;
 pub mod trajectory_csv;
 
 pub use geometry::{Point2, Pose2, wrap_angle, wrap_half_pi};
