@@ -116,7 +116,7 @@ mod tests {
                 t_s: 1_134_864_642.914_187,
                 u_px: -3.5,
                 v_px: 0.0,
-                heading_rad: -3.141_592,
+                heading_rad: -2.5,
                 meters_per_pixel: 0.06,
             },
         ];
