@@ -179,15 +179,24 @@ pub fn score_trajectory(
 ) -> Option<TrajectoryScore> {
     let pairs = match_by_stamp(estimate, truth);
     let alignment = umeyama_se2(&pairs)?;
+    Some(TrajectoryScore {
+        alignment,
+        ate_rmse_m: aligned_rmse_m(&pairs, &alignment)?,
+        matched: pairs.len(),
+    })
+}
+
+/// RMS distance of the estimated positions of `pairs` moved by `alignment` to their true
+/// positions; None without a pair.
+fn aligned_rmse_m(pairs: &[(Point2, Point2)], alignment: &Pose2) -> Option<f64> {
+    if pairs.is_empty() {
+        return None;
+    }
     let sq: f64 = pairs
         .iter()
         .map(|(p, q)| alignment.transform_point(p).distance(q).powi(2))
         .sum();
-    Some(TrajectoryScore {
-        alignment,
-        ate_rmse_m: (sq / pairs.len() as f64).sqrt(),
-        matched: pairs.len(),
-    })
+    Some((sq / pairs.len() as f64).sqrt())
 }
 
 /// The ATE of `estimate` against `truth` moved by a given `alignment` (not fitted to this
@@ -198,15 +207,7 @@ pub fn ate_with_alignment(
     truth: &[StampedPose],
     alignment: &Pose2,
 ) -> Option<f64> {
-    let pairs = match_by_stamp(estimate, truth);
-    if pairs.is_empty() {
-        return None;
-    }
-    let sq: f64 = pairs
-        .iter()
-        .map(|(p, q)| alignment.transform_point(p).distance(q).powi(2))
-        .sum();
-    Some((sq / pairs.len() as f64).sqrt())
+    aligned_rmse_m(&match_by_stamp(estimate, truth), alignment)
 }
 
 fn tree_of(points: impl Iterator<Item = Point2>) -> KdTree<f64, 2> {
