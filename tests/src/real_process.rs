@@ -12,7 +12,7 @@ use crate::metrics::WallGrid;
 use crate::processes::{ChildGuard, binary, unique_prefix};
 use crate::run::ONLINE_TRAJECTORY_FILE;
 use crate::run::{RunResult, Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
-use crate::run_loop::RunFigures;
+use crate::run_loop::{RunFigures, mcl_poses};
 use crate::service_process::{ServiceOptions, ServiceProcess};
 use crate::session_request::{baseline_session, sketch_session};
 use crate::sketch_truth::fill_sketch_pose_scores;
@@ -111,8 +111,6 @@ pub struct ProcessRun {
     /// `sketch` sessions: the session's pose on the drawing at each scan (its trajectory on
     /// the drawing, `GET …/trajectory?frame=sketch`, the points MCL gave), stamp in seconds.
     pub published_sketch_poses: Vec<(f64, SketchPose)>,
-    /// Every map pose the session published live, with its stamp (`online-trajectory.csv`).
-    pub published_poses: Vec<StampedPose>,
 }
 
 impl ProcessRun {
@@ -253,20 +251,7 @@ pub fn map_through_processes(
     if method == Method::Sketch {
         let on_drawing = runtime.block_on(client.sketch_trajectory(&session.id))?;
         std::fs::write(out_dir.join("sketch-trajectory.csv"), on_drawing.to_csv())?;
-        published_sketch_poses = on_drawing
-            .points
-            .iter()
-            .filter(|p| p.source == "mcl")
-            .map(|p| {
-                let pose = SketchPose {
-                    u_px: p.u,
-                    v_px: p.v,
-                    heading_rad: p.heading,
-                    meters_per_pixel: p.meters_per_pixel,
-                };
-                (p.t, pose)
-            })
-            .collect();
+        published_sketch_poses = mcl_poses(&on_drawing);
     }
     std::fs::write(
         out_dir.join("map.pgm"),
@@ -290,6 +275,5 @@ pub fn map_through_processes(
         },
         final_pose,
         published_sketch_poses,
-        published_poses,
     })
 }

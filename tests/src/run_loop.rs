@@ -11,12 +11,15 @@
 use crate::metrics::StampedPose;
 use crate::run::{ONLINE_TRAJECTORY_FILE, RunResult, sketch_prior};
 use anyhow::Result;
-use sketchslam_engine::mapper::{Mapper, MapperConfig, Method, TrajectoryPoint, trajectory_csv};
+use sketchslam_api::SketchTrajectoryResponse;
+use sketchslam_engine::mapper::{
+    DrawingPoseSource, Mapper, MapperConfig, Method, TrajectoryPoint, trajectory_csv,
+};
 use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::SimStep;
 use sketchslam_simulator::scenario::SketchConfig;
+use sketchslam_slam::codec::sketch_trajectory_response;
 use sketchslam_types::SensorEvent;
-use sketchslam_types::sketch_trajectory_csv::{self, DrawingRow};
 use std::path::Path;
 use std::time::Instant;
 
@@ -30,8 +33,8 @@ pub struct InProcessRun {
     pub mapping_s: f64,
     /// Engine milliseconds per scan, in scan order.
     pub scan_ms: Vec<f64>,
-    /// `sketch` runs: the pose on the drawing right after each scan (as the service
-    /// publishes it then) with the scan's stamp in seconds, in scan order.
+    /// `sketch` runs: MCL's pose on the drawing at each scan, stamp in seconds, in scan
+    /// order ([`mcl_poses`] of the mapper's trajectory on the drawing).
     pub sketch_poses: Vec<(f64, SketchPose)>,
 }
 
@@ -65,7 +68,6 @@ pub fn map_in_process(
     let mut truth = Vec::new();
     let mut mapping_s = 0.0;
     let mut scan_ms: Vec<f64> = Vec::new();
-    let mut sketch_poses: Vec<(f64, SketchPose)> = Vec::new();
     // Each scan's pose as the session publishes it then, before later closures move it.
     let mut live: Vec<TrajectoryPoint> = Vec::new();
     for step in steps {
@@ -88,9 +90,6 @@ pub fn map_in_process(
                 stamp_ns: scan.header.stamp_ns,
                 pose: now.map,
             });
-            if let Some(on_drawing) = now.sketch {
-                sketch_poses.push((scan.header.stamp_ns as f64 * 1e-9, on_drawing));
-            }
             progress(truth.len() as u64, total);
             if truth.len() as u64 >= total {
                 break;
@@ -107,17 +106,13 @@ pub fn map_in_process(
     )?;
     sketchslam_simulator::truth::write_truth_csv(&out_dir.join("truth.csv"), &truth)?;
     std::fs::write(out_dir.join(ONLINE_TRAJECTORY_FILE), trajectory_csv(&live))?;
+    let mut sketch_poses = Vec::new();
     if method == Method::Sketch {
-        // The whole trajectory on the drawing, as the service serves it at `?frame=sketch`.
-        let rows: Vec<(f64, SketchPose)> = mapper
-            .drawing_trajectory()
-            .iter()
-            .map(|p| (p.stamp_ns as f64 * 1e-9, p.pose))
-            .collect();
-        std::fs::write(
-            out_dir.join("sketch-trajectory.csv"),
-            sketch_trajectory_csv(&rows),
-        )?;
+        // The whole trajectory on the drawing, through the service's own codec, so the file
+        // is what `?frame=sketch&format=csv` serves.
+        let on_drawing = sketch_trajectory_response("in-process", mapper.drawing_trajectory());
+        std::fs::write(out_dir.join("sketch-trajectory.csv"), on_drawing.to_csv())?;
+        sketch_poses = mcl_poses(&on_drawing);
     }
     Ok(InProcessRun {
         mapper,
@@ -128,22 +123,24 @@ pub fn map_in_process(
     })
 }
 
-/// `sketch-trajectory.csv`: `t,u,v,heading,meters_per_pixel` (seconds, pixels, radians
-/// counter-clockwise from +u as the drawing is seen, meters per pixel), one row per stamp,
-/// through the one codec ([`sketchslam_types::sketch_trajectory_csv`]) the API's
-/// `SketchTrajectoryResponse::to_csv` uses.
-pub fn sketch_trajectory_csv(poses: &[(f64, SketchPose)]) -> String {
-    let rows: Vec<DrawingRow> = poses
+/// The poses MCL gave on the drawing (one per scan) of a trajectory on the drawing, stamp in
+/// seconds: what the scoring of the pose on the drawing compares with the truth, in both
+/// modes.
+pub fn mcl_poses(on_drawing: &SketchTrajectoryResponse) -> Vec<(f64, SketchPose)> {
+    on_drawing
+        .points
         .iter()
-        .map(|(t_s, p)| DrawingRow {
-            t_s: *t_s,
-            u_px: p.u_px,
-            v_px: p.v_px,
-            heading_rad: p.heading_rad,
-            meters_per_pixel: p.meters_per_pixel,
+        .filter(|p| p.source == DrawingPoseSource::Mcl.as_str())
+        .map(|p| {
+            let pose = SketchPose {
+                u_px: p.u,
+                v_px: p.v,
+                heading_rad: p.heading,
+                meters_per_pixel: p.meters_per_pixel,
+            };
+            (p.t, pose)
         })
-        .collect();
-    sketch_trajectory_csv::write(&rows)
+        .collect()
 }
 
 impl InProcessRun {
