@@ -285,28 +285,27 @@ fn run_mapper(
         shared: shared.clone(),
     };
     // Rebuilds a stale map (mapping-side work, between messages) and wakes map requests.
-    let refresh = |shared: &SessionShared| {
+    let refresh = || {
         let mut m = lock(&mapper);
-        if !m.map_is_current() {
-            m.refresh_map();
-        }
+        m.refresh_map(); // a no-op on a current map
         shared.map_wanted.store(false, Ordering::Release);
         shared.map_rebuilt.notify_all();
+        drop(m);
     };
     loop {
         let msg = match rx.recv_timeout(IDLE_REFRESH) {
             Ok(msg) => msg,
             Err(RecvTimeoutError::Timeout) => {
-                refresh(&shared);
+                refresh();
                 continue;
             }
             Err(RecvTimeoutError::Disconnected) => {
-                refresh(&shared);
+                refresh();
                 break;
             }
         };
         if shared.map_wanted.load(Ordering::Acquire) {
-            refresh(&shared);
+            refresh();
         }
         match msg {
             IntakeMsg::Event(event) => {
