@@ -113,6 +113,30 @@ fn publish_run(publisher: &mut RobotPublisher, first_seq: u64, n: u64, x0: f64) 
     }
 }
 
+/// A lock-step publisher for `robot` that waits for the session's subscriber, sends the
+/// run `(first_seq, n, x0)` of [`publish_run`], and goes away once session `id` has
+/// processed `total` scans: samples still queued when a publisher goes away may go with it
+/// (its data segment is its own).
+fn publish_until_processed(
+    reg: &Registry,
+    ipc: &IpcConfig,
+    robot: &str,
+    id: &str,
+    (first_seq, n, x0): (u64, u64, f64),
+    total: u64,
+) {
+    let mut publisher = RobotPublisher::new(ipc, robot, Delivery::lock_step()).unwrap();
+    assert!(
+        publisher
+            .wait_for_subscribers(1, Duration::from_secs(10))
+            .unwrap()
+    );
+    publish_run(&mut publisher, first_seq, n, x0);
+    wait_for(&format!("{total} scans"), Duration::from_secs(20), || {
+        reg.get_session(id).unwrap().scans_processed == total
+    });
+}
+
 fn wait_for(what: &str, timeout: Duration, mut f: impl FnMut() -> bool) {
     let deadline = Instant::now() + timeout;
     while !f() {
@@ -262,18 +286,7 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
         .unwrap();
     let id = session.id.clone();
     let ipc = IpcConfig::new(&prefix).unwrap();
-    {
-        let mut publisher = RobotPublisher::new(&ipc, "drawn", Delivery::lock_step()).unwrap();
-        assert!(
-            publisher
-                .wait_for_subscribers(1, Duration::from_secs(10))
-                .unwrap()
-        );
-        publish_run(&mut publisher, 0, 20, 0.0);
-        wait_for("20 scans", Duration::from_secs(20), || {
-            reg.get_session(&id).unwrap().scans_processed == 20
-        });
-    }
+    publish_until_processed(&reg, &ipc, "drawn", &id, (0, 20, 0.0), 20);
     // One pose on the drawing per stamp of the map-frame trajectory, MCL's at the scans.
     let live = reg.sketch_trajectory(&id).unwrap();
     assert_eq!(live.points.len(), reg.trajectory(&id).unwrap().points.len());
@@ -335,36 +348,12 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
 
     // The publisher starts after the session, sends 20 scans, and goes away.
     let ipc = IpcConfig::new(&prefix).unwrap();
-    {
-        let mut publisher = RobotPublisher::new(&ipc, "bot", Delivery::lock_step()).unwrap();
-        assert!(
-            publisher
-                .wait_for_subscribers(1, Duration::from_secs(10))
-                .unwrap()
-        );
-        publish_run(&mut publisher, 0, 20, 0.0);
-        // Samples still queued when a publisher goes away may go with it (its data
-        // segment is its own): the publisher stays until they are processed.
-        wait_for("20 scans", Duration::from_secs(20), || {
-            reg.get_session(&id).unwrap().scans_processed == 20
-        });
-    }
+    publish_until_processed(&reg, &ipc, "bot", &id, (0, 20, 0.0), 20);
     let info = reg.get_session(&id).unwrap();
     assert_eq!(info.state, SessionState::Mapping);
     assert_eq!(info.scans_lost, 0);
     // It comes back with a gap of 5 sequence numbers.
-    {
-        let mut publisher = RobotPublisher::new(&ipc, "bot", Delivery::lock_step()).unwrap();
-        assert!(
-            publisher
-                .wait_for_subscribers(1, Duration::from_secs(10))
-                .unwrap()
-        );
-        publish_run(&mut publisher, 25, 10, 1.25);
-        wait_for("30 scans", Duration::from_secs(20), || {
-            reg.get_session(&id).unwrap().scans_processed == 30
-        });
-    }
+    publish_until_processed(&reg, &ipc, "bot", &id, (25, 10, 1.25), 30);
     wait_for("the gap", Duration::from_secs(5), || {
         reg.get_session(&id).unwrap().scans_lost == 5
     });
