@@ -74,14 +74,6 @@ pub enum OdometrySource {
     Log,
 }
 
-impl Dataset {
-    /// True when the log's poses are a reference trajectory (corrected poses), so an ATE
-    /// against them means something.
-    pub fn has_reference_poses(&self) -> bool {
-        self.odometry_source == OdometrySource::Drift
-    }
-}
-
 /// `[lidar]`: what a `FLASER` line does not say about its scanner.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DatasetLidar {
@@ -248,6 +240,12 @@ impl Dataset {
     /// The sketch called `name`, if any.
     pub fn sketch(&self, name: &str) -> Option<&SketchConfig> {
         self.sketches.iter().find(|s| s.name == name)
+    }
+
+    /// True when the log's poses are a reference trajectory (corrected poses), so an ATE
+    /// against them means something.
+    pub fn has_reference_poses(&self) -> bool {
+        self.odometry_source == OdometrySource::Drift
     }
 }
 
