@@ -80,6 +80,51 @@ pub enum SimError {
     },
 }
 
+/// Why `simulator generate` could not write a world.
+#[derive(Debug, Error)]
+pub enum GenerateError {
+    /// A file or folder could not be written.
+    #[error("{}: {action}: {source}", .path.display())]
+    Io {
+        /// The file or folder.
+        path: PathBuf,
+        /// What was being done ("cannot create", "cannot write").
+        action: &'static str,
+        /// The operating system's reason.
+        #[source]
+        source: std::io::Error,
+    },
+
+    /// An image could not be encoded.
+    #[error("{}: cannot encode: {message}", .path.display())]
+    Encode {
+        /// The image file.
+        path: PathBuf,
+        /// The encoder's reason.
+        message: String,
+    },
+
+    /// No floor of this kind and seed gave a route that passes the checks (in range,
+    /// clear of every wall and piece of clutter) within the allowed number of re-draws.
+    #[error(
+        "seed {seed}, kind {kind}: no valid route after {attempts} floor plans; last problem: {last}"
+    )]
+    NoRoute {
+        /// The seed asked for.
+        seed: u64,
+        /// The kind drawn.
+        kind: String,
+        /// Floor plans tried.
+        attempts: u32,
+        /// What was wrong with the last one.
+        last: String,
+    },
+
+    /// The written folder does not load as a scenario (a bug of the generator).
+    #[error("the generated scenario does not load: {0}")]
+    Check(#[source] SimError),
+}
+
 /// `file:line` or `file`.
 fn location(file: &Path, line: Option<usize>) -> String {
     let mut s = file.display().to_string();

@@ -5,12 +5,14 @@
 //! with datasets); [`world`] holds the truth grid and casts
 //! rays; [`motion`] is the true trajectory; [`odometry`] and [`lidar`] are the sensor
 //! models; [`simulation`] streams their messages in stamp order; [`truth`] writes the true
-//! poses; [`render`] draws a scenario. Real data: [`dataset`] loads a dataset folder,
+//! poses; [`render`] draws a scenario; [`generate`] writes whole scenario folders (floor,
+//! route, sensors, hand-drawn sketches) from a seed. Real data: [`dataset`] loads a dataset folder,
 //! [`carmen`] parses its CARMEN log and [`replay`] streams it like a simulation.
 
 pub mod carmen;
 pub mod dataset;
 pub mod error;
+pub mod generate;
 pub mod lidar;
 pub mod motion;
 pub mod odometry;
@@ -23,7 +25,7 @@ mod toml_file;
 pub mod truth;
 pub mod world;
 
-pub use error::SimError;
+pub use error::{GenerateError, SimError};
 pub use scenario::{LidarConfig, OdometryConfig, RobotConfig, Scenario, SketchConfig, WorldConfig};
 pub use simulation::{SimStep, Simulation};
 pub use world::World;

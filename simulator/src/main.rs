@@ -6,7 +6,9 @@
 //! - `simulator replay DATASET_DIR --robot ID [same options as run]` publishes a dataset's
 //!   recorded log the same way (the log's corrected poses plus seeded drift as odometry;
 //!   `--truth-out` gets the log's poses at the scans);
-//! - `simulator render SCENARIO_DIR --out FILE.png [--scans N]` draws the scenario.
+//! - `simulator render SCENARIO_DIR --out FILE.png [--scans N]` draws the scenario;
+//! - `simulator generate OUT_DIR --seed N [--kind office|corridor|hall|mixed]
+//!   [--lidar good|cheap]` writes a generated scenario folder (`generate` module).
 //!
 //! Logs go to stderr (`RUST_LOG`, default `info`); the exit code is non-zero with a message
 //! on any bad input.
@@ -15,6 +17,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use sketchslam_ipc::{DEFAULT_BACKPRESSURE_TIMEOUT, IpcConfig, RobotPublisher};
 use sketchslam_simulator::dataset::Dataset;
+use sketchslam_simulator::generate::{GenerateOptions, Kind, LidarGrade};
 use sketchslam_simulator::publish::{Pace, PublishOptions, publish_events};
 use sketchslam_simulator::replay::Replay;
 use sketchslam_simulator::{Scenario, SimStep, Simulation};
@@ -38,6 +41,23 @@ enum Command {
     Replay(RunArgs),
     /// Draw a scenario (world, path, start, a few scans) as a PNG.
     Render(RenderArgs),
+    /// Generate a scenario folder (world, route, sensors, sketches, sketch truth) from a seed.
+    Generate(GenerateArgs),
+}
+
+#[derive(Debug, clap::Args)]
+struct GenerateArgs {
+    /// The folder to write (created if needed; files of the same names are replaced).
+    out_dir: PathBuf,
+    /// Seed of every random draw: the same seed gives the same bytes.
+    #[arg(long)]
+    seed: u64,
+    /// The building: office, corridor, hall, or mixed (one of the three, by seed).
+    #[arg(long, default_value = "mixed")]
+    kind: Kind,
+    /// The sensors: good (270°, 1081 beams, 30-50 m) or cheap (360°, 8-12 m, worn odometry).
+    #[arg(long, default_value = "good")]
+    lidar: LidarGrade,
 }
 
 #[derive(Debug, clap::Args)]
@@ -100,6 +120,7 @@ fn main() {
         Command::Run(args) => run(args, false),
         Command::Replay(args) => run(args, true),
         Command::Render(args) => render(args),
+        Command::Generate(args) => generate(args),
     };
     if let Err(e) = result {
         eprintln!("simulator: error: {e:#}");
@@ -200,5 +221,24 @@ fn render(args: RenderArgs) -> Result<()> {
     let img = sketchslam_simulator::render::render_scenario(&scenario, args.scans)?;
     sketchslam_simulator::render::save_png(&img, &args.out)?;
     tracing::info!(out = %args.out.display(), "rendered");
+    Ok(())
+}
+
+fn generate(args: GenerateArgs) -> Result<()> {
+    let options = GenerateOptions {
+        seed: args.seed,
+        kind: args.kind,
+        lidar: args.lidar,
+    };
+    let world = sketchslam_simulator::generate::generate(&options, &args.out_dir)
+        .with_context(|| format!("generating into {}", args.out_dir.display()))?;
+    tracing::info!(
+        out = %args.out_dir.display(),
+        name = %world.name,
+        size_m = %format!("{:.1} x {:.1}", world.floor.width_m, world.floor.height_m),
+        route_m = %format!("{:.0}", world.route.length_m),
+        sketches = world.drawings.len(),
+        "generated"
+    );
     Ok(())
 }
