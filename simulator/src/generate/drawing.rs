@@ -83,20 +83,20 @@ pub struct Pen {
 
 impl Pen {
     /// A random hand: strokes 2–3 px wide, a wobble of at most `wobble_px` pixels with
-    /// wavelengths of 50–200 px.
+    /// wavelengths of 40–150 px.
     pub fn random(wobble_px: f64, rng: &mut ChaCha8Rng) -> Pen {
-        let n = 4;
+        let n = 3;
         let waves = (0..n)
             .map(|_| {
                 let dir = rng.random_range(0.0..std::f64::consts::TAU);
-                let k = std::f64::consts::TAU / rng.random_range(50.0..200.0);
+                let k = std::f64::consts::TAU / rng.random_range(40.0..150.0);
                 let amp = wobble_px / n as f64;
                 [
                     k * dir.cos(),
                     k * dir.sin(),
                     rng.random_range(0.0..std::f64::consts::TAU),
-                    amp * rng.random_range(0.3..1.0),
-                    amp * rng.random_range(0.3..1.0),
+                    amp * rng.random_range(0.6..1.0),
+                    amp * rng.random_range(0.6..1.0),
                 ]
             })
             .collect();

@@ -339,7 +339,7 @@ fn draw_all(
         if segments.len() < before {
             how.push(format!("{} short walls left out", before - segments.len()));
         }
-        let pen = drawing::Pen::random(rng.random_range(1.5..2.5), rng);
+        let pen = drawing::Pen::random(rng.random_range(2.0..3.0), rng);
         let flat = drawing::render(&map, &segments, &pen);
         let corners_m = corners(floor, &areas, &segments);
 
