@@ -32,12 +32,14 @@ pub fn build(rng: &mut ChaCha8Rng) -> (Floor, Vec<Stop>) {
     let atrium_rect = Rect::new(acx - 0.5 * ax, -below, acx + 0.5 * ax, ay - below);
     let atrium = floor.add_area(atrium_rect, AreaKind::Hall);
     let r = atrium_rect;
+    // Round the atrium: its far side always, the part below the corridor when it is deep.
     let mut visit = vec![
         Stop::must(atrium, Point2::new(r.x0_m + 2.5, r.y1_m - 2.5)),
         Stop::must(atrium, Point2::new(r.x1_m - 2.5, r.y1_m - 2.5)),
     ];
     if below >= 5.0 {
         visit.push(Stop::may(atrium, Point2::new(r.x1_m - 2.5, r.y0_m + 2.5)));
+        visit.push(Stop::may(atrium, Point2::new(r.x0_m + 2.5, r.y0_m + 2.5)));
     }
     groups.push((r.x0_m, visit));
 

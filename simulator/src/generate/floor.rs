@@ -368,13 +368,14 @@ impl Floor {
         self.links.clear();
         for i in 0..self.areas.len() {
             for j in i + 1..self.areas.len() {
-                if let Some(r) = self.areas[i].rect.intersection(&self.areas[j].rect) {
-                    if r.width_m() >= 1.6 && r.height_m() >= 1.6 {
-                        self.links.push(Link {
-                            areas: [i, j],
-                            point: r.centre(),
-                        });
-                    }
+                if let Some(r) = self.areas[i].rect.intersection(&self.areas[j].rect)
+                    && r.width_m() >= 1.6
+                    && r.height_m() >= 1.6
+                {
+                    self.links.push(Link {
+                        areas: [i, j],
+                        point: r.centre(),
+                    });
                 }
             }
         }

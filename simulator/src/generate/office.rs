@@ -221,11 +221,11 @@ pub(super) fn rooms_along(
             floor.add_door(piece, room, c, size.door_m);
         }
         // Neighbours joined by an inner door, deep in the room.
-        if let Some(prev) = prev {
-            if rng.random_bool(0.3) {
-                let mid = 0.5 * (c0 + c1) + 0.2 * side * (c1 - c0);
-                floor.add_door(prev, room, mid, size.door_m);
-            }
+        if let Some(prev) = prev
+            && rng.random_bool(0.3)
+        {
+            let mid = 0.5 * (c0 + c1) + 0.2 * side * (c1 - c0);
+            floor.add_door(prev, room, mid, size.door_m);
         }
         out.push((doors_at[0], Stop::may(room, rect.centre())));
         prev = Some(room);

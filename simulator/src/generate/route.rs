@@ -113,12 +113,9 @@ impl Portals {
         let mut done = vec![false; n + 2];
         dist[src] = 0.0;
         loop {
-            let Some(k) = (0..n + 2)
+            let k = (0..n + 2)
                 .filter(|&k| !done[k] && dist[k].is_finite())
-                .min_by(|&a, &b| dist[a].total_cmp(&dist[b]))
-            else {
-                return None;
-            };
+                .min_by(|&a, &b| dist[a].total_cmp(&dist[b]))?;
             if k == dst {
                 break;
             }
