@@ -7,7 +7,7 @@
 
 use serde::Deserialize;
 use sketchslam_simulator::generate::{GenerateOptions, GeneratedWorld, Kind, LidarGrade, generate};
-use sketchslam_simulator::{Scenario, World};
+use sketchslam_simulator::{Scenario, Simulation, World};
 use sketchslam_types::{Point2, Pose2, wrap_angle};
 use std::path::{Path, PathBuf};
 
@@ -93,6 +93,13 @@ fn every_kind_and_grade_loads_with_a_clear_route_in_range() {
                     "{kind} {seed}: route {len:.1} m"
                 );
                 assert!((len - world.route.length_m).abs() < 1e-6);
+                let sim = Simulation::new(&scenario).unwrap();
+                let min_scans = scenario.lidar.rate_hz * len / scenario.robot.speed_m_s;
+                assert!(
+                    sim.scan_count() as f64 >= min_scans,
+                    "{kind} {seed}: {} scans",
+                    sim.scan_count()
+                );
                 let clear = route_clearance_m(&scenario, &grid);
                 assert!(
                     clear >= 0.35 - 1e-9,
@@ -133,13 +140,20 @@ fn the_same_seed_gives_the_same_bytes_and_another_seed_another_world() {
         lidar: LidarGrade::Good,
     };
     generate(&options(42), &a.0).unwrap();
+    // Over an older generation with other sketches: the same files come out.
+    generate(&options(7), &b.0).unwrap();
     generate(&options(42), &b.0).unwrap();
     generate(&options(43), &c.0).unwrap();
-    let mut names: Vec<_> = std::fs::read_dir(&a.0)
-        .unwrap()
-        .map(|e| e.unwrap().file_name())
-        .collect();
-    names.sort();
+    let names = |d: &TempDir| {
+        let mut n: Vec<_> = std::fs::read_dir(&d.0)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        n.sort();
+        n
+    };
+    assert_eq!(names(&a), names(&b));
+    let names = names(&a);
     assert!(names.len() >= 5, "{names:?}");
     for name in &names {
         let (x, y) = (

@@ -40,6 +40,27 @@ pub fn create_dir(dir: &Path) -> Result<(), GenerateError> {
     })
 }
 
+/// Removes sketch images an earlier generation may have left in `dir` (`sketch-a.png` ..
+/// `sketch-c.jpg`), so that a folder generated twice holds the same files.
+pub fn remove_old_sketches(dir: &Path) -> Result<(), GenerateError> {
+    for name in ["a", "b", "c"] {
+        for ext in ["png", "jpg"] {
+            let path = dir.join(format!("sketch-{name}.{ext}"));
+            match std::fs::remove_file(&path) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                    return Err(GenerateError::Io {
+                        path,
+                        action: "cannot remove",
+                        source: e,
+                    });
+                }
+                _ => {}
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Writes `img` as PNG.
 pub fn write_png(path: &Path, img: &GrayImage) -> Result<(), GenerateError> {
     img.save_with_format(path, image::ImageFormat::Png)

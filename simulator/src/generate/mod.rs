@@ -202,7 +202,7 @@ fn stream(seed: u64, k: u64) -> ChaCha8Rng {
 }
 
 /// Generates a world for `options` and writes its scenario folder to `out_dir` (created if
-/// needed; files of the same names are replaced). The folder is loaded back with
+/// needed; files of the same names, and sketches of an earlier generation, are replaced). The folder is loaded back with
 /// [`Scenario::load`] before returning.
 pub fn generate(
     options: &GenerateOptions,
@@ -214,6 +214,7 @@ pub fn generate(
     let (lidar, odometry) = sensors::pick(options.lidar, &mut rng);
 
     files::create_dir(out_dir)?;
+    files::remove_old_sketches(out_dir)?;
     files::write_png(&out_dir.join(files::WORLD_FILE), &floor.world_image())?;
     let drawings = draw_all(&floor, &route, out_dir, &mut rng)?;
 
