@@ -256,8 +256,9 @@ pub struct Floor {
     pub clutter: Vec<Clutter>,
 }
 
-/// How deep a door's approach point lies inside an area, at most.
-const APPROACH_M: f64 = 1.0;
+/// How deep a door's approach point lies inside an area, at most (half the depth when
+/// less: on a corridor's centre line, so a row of doors does not make the route zigzag).
+const APPROACH_M: f64 = 1.5;
 /// Wall left on each side of a door, at least, meters.
 const JAMB_M: f64 = 0.35;
 

@@ -413,8 +413,10 @@ fn describe(
     lidar: &LidarConfig,
 ) -> String {
     let count = |k: AreaKind| floor.areas.iter().filter(|a| a.kind == k).count();
+    // Independent loops of the (connected) graph of areas joined by doors and links.
+    let loops = (floor.doors.len() + floor.links.len() + 1).saturating_sub(floor.areas.len());
     format!(
-        "A generated {kind} floor, {:.0} x {:.0} m: {} corridor pieces, {} rooms, {} meeting rooms, {} halls, {} doors, {} pieces of clutter no sketch shows; a {:.0} m route with loops and revisits; {grade} LiDAR ({:.0} m, {} beams)",
+        "A generated {kind} floor, {:.0} x {:.0} m: {} corridor pieces, {} rooms, {} meeting rooms, {} halls, {} doors, {loops} loops, {} pieces of clutter no sketch shows; a {:.0} m route that comes back over its way; {grade} LiDAR ({:.0} m, {} beams)",
         floor.width_m,
         floor.height_m,
         count(AreaKind::Corridor),
