@@ -207,8 +207,9 @@ pub struct Door {
 pub struct Link {
     /// The two areas.
     pub areas: [usize; 2],
-    /// The centre of their overlap, the route's way from one to the other.
-    pub point: Point2,
+    /// The route's ways from one to the other: the centre of their overlap, and on a long
+    /// overlap (a corridor running through a hall) also points 1 m from either end.
+    pub points: Vec<Point2>,
 }
 
 /// Furniture and structure that the drawings leave out.
@@ -373,9 +374,18 @@ impl Floor {
                     && r.width_m() >= 1.6
                     && r.height_m() >= 1.6
                 {
+                    let c = r.centre();
+                    let mut points = vec![c];
+                    if r.width_m() >= 4.0 && r.width_m() >= r.height_m() {
+                        points.push(Point2::new(r.x0_m + 1.0, c.y));
+                        points.push(Point2::new(r.x1_m - 1.0, c.y));
+                    } else if r.height_m() >= 4.0 {
+                        points.push(Point2::new(c.x, r.y0_m + 1.0));
+                        points.push(Point2::new(c.x, r.y1_m - 1.0));
+                    }
                     self.links.push(Link {
                         areas: [i, j],
-                        point: r.centre(),
+                        points,
                     });
                 }
             }

@@ -83,7 +83,7 @@ impl Portals {
             crossings.push((nodes.len() - 2, nodes.len() - 1));
         }
         for l in &floor.links {
-            nodes.push((l.point, l.areas));
+            nodes.extend(l.points.iter().map(|&p| (p, l.areas)));
         }
         Portals { nodes, crossings }
     }
