@@ -479,3 +479,56 @@ fn cells(a_m: f64, b_m: f64, n: usize) -> (usize, usize) {
     let hi = (b_m * PX_PER_M).round().clamp(0.0, n as f64) as usize;
     (lo, hi.max(lo))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_door_spans_the_wall_and_its_approaches_lie_on_its_centre_line() {
+        // A corridor 2 m wide, a room above it behind a 0.2 m wall.
+        let corridor = Rect::new(0.0, 0.0, 20.0, 2.0);
+        let room = Rect::new(5.0, 2.2, 9.0, 7.2);
+        let (door, [a, b]) = Floor::door_between(&corridor, &room, 6.0, 1.0).unwrap();
+        assert_eq!(door, Rect::new(5.5, 2.0, 6.5, 2.2));
+        assert_eq!(
+            a,
+            Point2::new(6.0, 1.0),
+            "corridor side: on its centre line"
+        );
+        assert_eq!(b, Point2::new(6.0, 3.7), "room side: 1.5 m in");
+        // Too close to the room's corner for the jamb.
+        assert!(Floor::door_between(&corridor, &room, 5.6, 1.0).is_none());
+        // Not neighbours.
+        assert!(Floor::door_between(&corridor, &Rect::new(5.0, 4.0, 9.0, 8.0), 6.0, 1.0).is_none());
+    }
+
+    #[test]
+    fn segments_and_rectangles_measure_their_distance() {
+        let r = Rect::new(1.0, 1.0, 2.0, 2.0);
+        assert_eq!(
+            r.distance_to_segment(Point2::new(0.0, 1.5), Point2::new(3.0, 1.5)),
+            0.0
+        );
+        let d = r.distance_to_segment(Point2::new(0.0, 3.0), Point2::new(3.0, 3.0));
+        assert!((d - 1.0).abs() < 1e-12);
+        let d = r.distance_to_segment(Point2::new(3.0, 0.0), Point2::new(4.0, -1.0));
+        assert!((d - 2f64.sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn overlapping_pieces_link_and_the_image_is_carved() {
+        let mut f = Floor::new(0.2);
+        f.add_area(Rect::new(0.0, 0.0, 10.0, 2.0), AreaKind::Corridor);
+        f.add_area(Rect::new(8.0, 0.0, 10.0, 10.0), AreaKind::Corridor);
+        f.finish(1.0);
+        assert_eq!(f.links.len(), 1);
+        assert_eq!(f.links[0].points, vec![Point2::new(10.0, 2.0)]);
+        assert_eq!((f.width_m, f.height_m), (12.0, 12.0));
+        let img = f.world_image();
+        assert_eq!(img.dimensions(), (240, 240));
+        // (2, 2) m is in the corridor, (2, 6) m is wall; image rows are top-down.
+        assert_eq!(img.get_pixel(40, 240 - 1 - 40).0[0], 255);
+        assert_eq!(img.get_pixel(40, 240 - 1 - 120).0[0], 0);
+    }
+}

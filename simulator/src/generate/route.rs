@@ -299,3 +299,74 @@ pub fn legs(route: &Route) -> Vec<(Point2, Point2)> {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::generate::floor::{AreaKind, Rect};
+
+    /// A corridor with two rooms above it, each behind a door.
+    fn two_rooms() -> Floor {
+        let mut f = Floor::new(0.2);
+        let c = f.add_area(Rect::new(0.0, 0.0, 20.0, 2.0), AreaKind::Corridor);
+        let a = f.add_area(Rect::new(2.0, 2.2, 6.0, 7.0), AreaKind::Room);
+        let b = f.add_area(Rect::new(12.0, 2.2, 16.0, 7.0), AreaKind::Room);
+        f.add_door(c, a, 3.0, 1.0).unwrap();
+        f.add_door(c, b, 14.0, 1.0).unwrap();
+        f
+    }
+
+    #[test]
+    fn the_way_between_rooms_goes_out_one_door_along_the_corridor_and_in_the_other() {
+        let f = two_rooms();
+        let p = Portals::new(&f);
+        let from = Stop::must(1, Point2::new(4.0, 5.0));
+        let to = Stop::must(2, Point2::new(14.0, 5.0));
+        let (way, len) = p.path(&from, &to).unwrap();
+        let expect = [
+            Point2::new(3.0, 3.7),
+            Point2::new(3.0, 1.0),
+            Point2::new(14.0, 1.0),
+            Point2::new(14.0, 3.7),
+            Point2::new(14.0, 5.0),
+        ];
+        assert_eq!(way, expect);
+        let mut l = from.point.distance(&expect[0]);
+        for w in expect.windows(2) {
+            l += w[0].distance(&w[1]);
+        }
+        assert!((len - l).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_short_tour_is_driven_again_until_it_is_long_enough() {
+        let f = two_rooms();
+        let stops = [
+            Stop::must(0, Point2::new(1.0, 1.0)),
+            Stop::may(1, Point2::new(4.0, 5.0)),
+            Stop::must(0, Point2::new(19.0, 1.0)),
+        ];
+        let mut rng = rand::SeedableRng::seed_from_u64(1);
+        // One lap is ~45 m: four laps, each out to the far end and back.
+        let route = build(&f, &stops, 1.0, &mut rng).unwrap();
+        assert!(
+            (MIN_LENGTH_M..=MAX_LENGTH_M).contains(&route.length_m),
+            "{route:?}"
+        );
+        let far = route
+            .waypoints
+            .iter()
+            .filter(|p| **p == Point2::new(19.0, 1.0))
+            .count();
+        assert_eq!(far, 4, "{route:?}");
+        assert_eq!(
+            route.waypoints.last(),
+            Some(&Point2::new(1.0, 1.0)),
+            "back at the start"
+        );
+        // A tour that cannot reach the length in four laps fails clearly.
+        let short = [stops[0], Stop::must(0, Point2::new(5.0, 1.0))];
+        let err = build(&f, &short, 1.0, &mut rng).unwrap_err();
+        assert!(err.contains("outside [150, 350]"), "{err}");
+    }
+}
