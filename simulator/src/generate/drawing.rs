@@ -3,12 +3,13 @@
 //! warps of a [`DrawingMap`]), a wobbling hand, door gaps left open or drawn shut, a room
 //! or a short wall left out, and no clutter.
 //!
-//! [`outline`] finds the free space's boundary on the world grid as axis-aligned segments;
+//! [`outline`] finds the walls on the world grid as axis-aligned segments (one line per
+//! wall, at its middle);
 //! [`render`] carries them through [`DrawingMap::to_canvas`] (the evaluation's formula) and
 //! strokes them with a [`Pen`], whose wobble is a smooth displacement field of a couple of
 //! pixels — the only deviation from the formula. [`super::photo`] may then photograph it.
 
-use super::floor::PX_PER_M;
+use super::floor::{Floor, PX_PER_M, Rect};
 use super::mapping::DrawingMap;
 use image::{GrayImage, Luma};
 use rand::Rng;
@@ -18,51 +19,109 @@ use sketchslam_types::Point2;
 /// A boundary segment of the free space, world meters, axis-aligned.
 pub type Segment = (Point2, Point2);
 
-/// The boundary between free and wall cells of `free` (`w × h`, row-major from the bottom;
-/// outside counts as wall), merged into maximal horizontal and vertical segments.
-pub fn outline(free: &[bool], w: usize, h: usize) -> Vec<Segment> {
-    let at = |i: i64, j: i64| {
-        i >= 0
-            && j >= 0
-            && (i as usize) < w
-            && (j as usize) < h
-            && free[j as usize * w + i as usize]
-    };
-    let mut out = Vec::new();
-    let m = |c: usize| c as f64 / PX_PER_M;
-    // Horizontal grid lines y = j.
-    for j in 0..=h as i64 {
-        let mut run: Option<usize> = None;
-        for i in 0..=w {
-            let edge = i < w && at(i as i64, j - 1) != at(i as i64, j);
-            match (edge, run) {
-                (true, None) => run = Some(i),
-                (false, Some(i0)) => {
-                    out.push((
-                        Point2::new(m(i0), m(j as usize)),
-                        Point2::new(m(i), m(j as usize)),
-                    ));
-                    run = None;
+/// The walls a person draws, as axis-aligned segments in world meters: every drawn area
+/// (overlapping corridor pieces and halls merged into one outline) grown to the middle of
+/// its walls, so that a thin wall between two rooms is ONE line; an open door leaves a gap
+/// in it. `areas[k]` / `open_doors[k]` say which areas are drawn and which doors are gaps.
+pub fn outline(floor: &Floor, areas: &[bool], open_doors: &[bool]) -> Vec<Segment> {
+    let (w, h) = floor.size_px();
+    // Overlapping areas share an outline: union them through the links.
+    let mut group: Vec<usize> = (0..floor.areas.len()).collect();
+    fn root(g: &mut [usize], k: usize) -> usize {
+        let mut r = k;
+        while g[r] != r {
+            r = g[r];
+        }
+        g[k] = r;
+        r
+    }
+    for l in &floor.links {
+        let (a, b) = (root(&mut group, l.areas[0]), root(&mut group, l.areas[1]));
+        group[a.max(b)] = a.min(b);
+    }
+    let grow = ((floor.wall_m * PX_PER_M).round() / 2.0).ceil() as i64;
+    let cell = |v_m: f64| (v_m * PX_PER_M).round() as i64;
+    let mut label = vec![0usize; w * h];
+    for (k, a) in floor.areas.iter().enumerate() {
+        if !areas[k] {
+            continue;
+        }
+        let id = root(&mut group, k) + 1;
+        let r = &a.rect;
+        let (i0, i1) = (
+            (cell(r.x0_m) - grow).max(0),
+            (cell(r.x1_m) + grow).min(w as i64),
+        );
+        let (j0, j1) = (
+            (cell(r.y0_m) - grow).max(0),
+            (cell(r.y1_m) + grow).min(h as i64),
+        );
+        for j in j0..j1 {
+            label[j as usize * w + i0 as usize..j as usize * w + i1 as usize].fill(id);
+        }
+    }
+    // Gaps: each open door's opening, through the grown walls on both sides.
+    let reach = (grow + 1) as f64 / PX_PER_M;
+    let gaps: Vec<Rect> = floor
+        .doors
+        .iter()
+        .zip(open_doors)
+        .filter(|(d, open)| **open && d.areas.iter().all(|&a| areas[a]))
+        .map(|(d, _)| {
+            let r = d.rect;
+            if r.width_m() < r.height_m() {
+                Rect {
+                    x0_m: r.x0_m - reach,
+                    x1_m: r.x1_m + reach,
+                    ..r
                 }
-                _ => {}
+            } else {
+                Rect {
+                    y0_m: r.y0_m - reach,
+                    y1_m: r.y1_m + reach,
+                    ..r
+                }
+            }
+        })
+        .collect();
+    let in_gap = |x: f64, y: f64| gaps.iter().any(|g| g.contains(Point2::new(x, y), 0.0));
+    let at = |i: i64, j: i64| {
+        if i >= 0 && j >= 0 && (i as usize) < w && (j as usize) < h {
+            label[j as usize * w + i as usize]
+        } else {
+            0
+        }
+    };
+    let m = |c: i64| c as f64 / PX_PER_M;
+    let mut out = Vec::new();
+    let mut flush = |run: &mut Option<i64>, end: i64, line: i64, horizontal: bool| {
+        if let Some(start) = run.take() {
+            out.push(if horizontal {
+                (Point2::new(m(start), m(line)), Point2::new(m(end), m(line)))
+            } else {
+                (Point2::new(m(line), m(start)), Point2::new(m(line), m(end)))
+            });
+        }
+    };
+    for j in 0..=h as i64 {
+        let mut run = None;
+        for i in 0..=w as i64 {
+            let edge = i < w as i64 && at(i, j - 1) != at(i, j) && !in_gap(m(i) + 0.025, m(j));
+            if edge && run.is_none() {
+                run = Some(i);
+            } else if !edge {
+                flush(&mut run, i, j, true);
             }
         }
     }
-    // Vertical grid lines x = i.
     for i in 0..=w as i64 {
-        let mut run: Option<usize> = None;
-        for j in 0..=h {
-            let edge = j < h && at(i - 1, j as i64) != at(i, j as i64);
-            match (edge, run) {
-                (true, None) => run = Some(j),
-                (false, Some(j0)) => {
-                    out.push((
-                        Point2::new(m(i as usize), m(j0)),
-                        Point2::new(m(i as usize), m(j)),
-                    ));
-                    run = None;
-                }
-                _ => {}
+        let mut run = None;
+        for j in 0..=h as i64 {
+            let edge = j < h as i64 && at(i - 1, j) != at(i, j) && !in_gap(m(i), m(j) + 0.025);
+            if edge && run.is_none() {
+                run = Some(j);
+            } else if !edge {
+                flush(&mut run, j, i, false);
             }
         }
     }

@@ -293,7 +293,6 @@ fn draw_all(
 ) -> Result<Vec<GeneratedDrawing>, GenerateError> {
     let count = rng.random_range(2..=3);
     let photographed = rng.random_range(0..count);
-    let (w, h) = floor.size_px();
     let mut out = Vec::new();
     for k in 0..count {
         let name = ["A", "B", "C"][k].to_string();
@@ -331,7 +330,7 @@ fn draw_all(
             .iter()
             .map(|d| d.areas.iter().all(|&a| areas[a]) && (open != rng.random_bool(0.15)))
             .collect();
-        let mut segments = drawing::outline(&floor.free_mask(Some(&areas), Some(&doors)), w, h);
+        let mut segments = drawing::outline(floor, &areas, &doors);
         let before = segments.len();
         segments.retain(|(a, b)| {
             let len = a.distance(b);
@@ -385,18 +384,24 @@ fn draw_all(
     Ok(out)
 }
 
-/// Corners of drawn rectangles that are the end of a drawn stroke.
+/// Corners of drawn rooms and halls whose wall corner (grown to the middle of the wall, as
+/// [`drawing::outline`] draws it) is the end of a drawn stroke: the room's free corner
+/// lies within a wall's thickness of ink.
 fn corners(floor: &Floor, areas: &[bool], segments: &[drawing::Segment]) -> Vec<Point2> {
     let ends: Vec<Point2> = segments.iter().flat_map(|&(a, b)| [a, b]).collect();
+    let near = floor.wall_m * 0.75 + 0.05;
     let mut out = Vec::new();
     for (k, a) in floor.areas.iter().enumerate() {
-        if !areas[k] {
+        if !areas[k]
+            || !matches!(
+                a.kind,
+                AreaKind::Room | AreaKind::MeetingRoom | AreaKind::Hall
+            )
+        {
             continue;
         }
         for c in a.rect.corners() {
-            if ends.iter().any(|e| e.distance(&c) < 1e-6)
-                && !out.iter().any(|o: &Point2| o.distance(&c) < 1e-6)
-            {
+            if ends.iter().any(|e| e.distance(&c) <= near) {
                 out.push(c);
             }
         }
