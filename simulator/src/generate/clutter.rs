@@ -6,7 +6,8 @@
 //! [`KEEP_OFF_M`] from every leg and clear of every door, so the route's clearance holds
 //! by construction (and [`super::route::check_clearance`] checks it again on the image).
 
-use super::floor::{AreaKind, Clutter, Floor, Rect};
+use super::floor::{AreaKind, Clutter, Floor};
+use super::rect::Rect;
 use super::route::CLEARANCE_M;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;

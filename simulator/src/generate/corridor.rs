@@ -6,8 +6,9 @@
 //! round the ring, into branches and rooms as the length allows), then straight back under
 //! the ring to the start — the revisit.
 
-use super::floor::{AreaKind, Floor, Rect, snap};
+use super::floor::{AreaKind, Floor};
 use super::office::{RoomSize, Row, door_at, rooms_along};
+use super::rect::{Rect, snap};
 use super::route::Stop;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;

@@ -9,8 +9,9 @@
 //! strokes them with a [`Pen`], whose wobble is a smooth displacement field of a couple of
 //! pixels — the only deviation from the formula. [`super::photo`] may then photograph it.
 
-use super::floor::{Floor, PX_PER_M, Rect};
+use super::floor::Floor;
 use super::mapping::DrawingMap;
+use super::rect::{PX_PER_M, Rect};
 use image::{GrayImage, Luma};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;

@@ -5,8 +5,9 @@
 //! Builds the [`Floor`] and the tour's [`Stop`]s: east along the bottom of every hall,
 //! back west along the top (through the other corridor), down to the start.
 
-use super::floor::{AreaKind, Floor, Rect, snap};
+use super::floor::{AreaKind, Floor};
 use super::office::{RoomSize, Row, door_at, rooms_along};
+use super::rect::{Rect, snap};
 use super::route::Stop;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;

@@ -6,7 +6,8 @@
 //! ends and corners are mandatory, every room is an optional visit in driving order. Loops:
 //! the ring, a meeting room's two doors, a pair of joined rooms.
 
-use super::floor::{AreaKind, Floor, Rect, snap};
+use super::floor::{AreaKind, Floor};
+use super::rect::{Rect, snap};
 use super::route::Stop;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;

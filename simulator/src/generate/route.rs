@@ -8,7 +8,8 @@
 //! route is shorter than [`MIN_LENGTH_M`] (revisits). [`check_clearance`] then verifies the
 //! result on the rasterized world, which is what the scenario loader sees.
 
-use super::floor::{Floor, PX_PER_M};
+use super::floor::Floor;
+use super::rect::PX_PER_M;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use sketchslam_types::{Point2, Pose2};
@@ -303,7 +304,8 @@ pub fn legs(route: &Route) -> Vec<(Point2, Point2)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::generate::floor::{AreaKind, Rect};
+    use crate::generate::floor::AreaKind;
+    use crate::generate::rect::Rect;
 
     /// A corridor with two rooms above it, each behind a door.
     fn two_rooms() -> Floor {
