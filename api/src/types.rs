@@ -276,10 +276,15 @@ pub struct SessionInfo {
     pub localization_score: f64,
     /// How often localization on the sketch recovered from a breakdown.
     pub recoveries: u64,
-    /// Loops closed by the `sketch` method's back end so far: each one moved the
+    /// Loops closed by the back end so far (`graph` and `sketch`): each one moved the
     /// trajectory and the map onto a second view of a place.
     #[serde(default)]
     pub loop_closures: u64,
+    /// Loops the scan matcher found but the back end refused: they disagreed with the
+    /// odometry chain or with the other loops (a look-alike room, a door in a row), or
+    /// were taken out of the graph again.
+    #[serde(default)]
+    pub loop_closures_rejected: u64,
     /// The sketch's scale as currently estimated, meters per pixel.
     pub estimated_meters_per_pixel: Option<f64>,
     /// The last error of the mapper or intake, if any.

@@ -152,6 +152,7 @@ impl Backend for Fake {
             localization_score: 0.0,
             recoveries: 0,
             loop_closures: 0,
+            loop_closures_rejected: 0,
             estimated_meters_per_pixel: r.meters_per_pixel,
             last_error: None,
             created_unix_ms: 2,

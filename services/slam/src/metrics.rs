@@ -119,8 +119,14 @@ pub fn render_metrics(
     family(
         "sketchslam_loop_closures_total",
         "counter",
-        "Loops closed by the sketch method's back end.",
+        "Loops closed by the back end (graph and sketch methods).",
         &|i, _| i.loop_closures.to_string(),
+    );
+    family(
+        "sketchslam_loop_closures_rejected_total",
+        "counter",
+        "Matched loops the back end refused (inconsistent with the odometry chain or the other loops).",
+        &|i, _| i.loop_closures_rejected.to_string(),
     );
     family(
         "sketchslam_localization_score",

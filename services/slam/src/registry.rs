@@ -233,6 +233,7 @@ impl Registry {
             localization_score: 0.0,
             recoveries: 0,
             loop_closures: 0,
+            loop_closures_rejected: 0,
             estimated_meters_per_pixel: request.meters_per_pixel,
             last_error: None,
             created_unix_ms: now_unix_ms(),

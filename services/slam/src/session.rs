@@ -340,6 +340,7 @@ fn run_mapper(
                     info.scans_processed = health.scans_processed;
                     info.recoveries = health.recoveries as u64;
                     info.loop_closures = u64::from(health.loop_closures);
+                    info.loop_closures_rejected = u64::from(health.loop_closures_rejected);
                     info.localization_score = response.localization_score;
                     info.estimated_meters_per_pixel = health.meters_per_pixel;
                     let changed = info.state == SessionState::WaitingForData;

@@ -18,6 +18,9 @@
 //!
 //! Pure: values in, values out.
 
+use crate::back_end::closure_consistency::{
+    ChainVariance, LoopHypothesis, StepNoise, chain_variance, pair_distance_sq, prior_distance_sq,
+};
 use crate::back_end::pose_graph::{Edge, OptimizeConfig, PoseGraph};
 use crate::scan_matching::correlative::{
     CorrelativeConfig, LikelihoodField, SearchWindow, voxel_filter,
@@ -90,6 +93,22 @@ pub struct LoopClosureConfig {
     pub voxel_m: f64,
     /// Gauss–Newton settings.
     pub optimize: OptimizeConfig,
+    /// χ² bound (3 degrees of freedom) of the consistency tests of a matched loop against
+    /// the odometry chain and against another loop ([`closure_consistency`]). Default
+    /// 11.34, the 99 % quantile: a right loop fails one test in a hundred.
+    pub consistency_chi2: f64,
+    /// A matched loop enters the graph once this many loops, itself included, agree
+    /// pairwise; one that agrees with a loop already in the graph near it needs only that
+    /// one. Default 3: in a row of identical rooms one look-alike match is common, three
+    /// matches from different keyframes that agree on one wrong place are not.
+    pub min_consistent_loops: usize,
+    /// A matched loop waits this many keyframes for others to agree with it, then is
+    /// rejected. Default 20 (10 m of route at the default keyframe spacing).
+    pub pending_keyframes: usize,
+    /// After an optimization, a loop edge whose squared Mahalanobis error is above this
+    /// disagrees with the rest of the graph and is taken out again. Default 16.27, the
+    /// 99.9 % χ² quantile of 3 degrees of freedom.
+    pub residual_chi2: f64,
 }
 
 impl Default for LoopClosureConfig {
@@ -123,6 +142,10 @@ impl Default for LoopClosureConfig {
             optimize_every_keyframes: 10,
             voxel_m: 0.05,
             optimize: OptimizeConfig::default(),
+            consistency_chi2: 11.34,
+            min_consistent_loops: 3,
+            pending_keyframes: 20,
+            residual_chi2: 16.27,
         }
     }
 }
@@ -156,9 +179,23 @@ pub struct LoopCloser {
     points: Vec<Vec<Point2>>,
     /// Route length at each keyframe, meters.
     travel_m: Vec<f64>,
+    /// Loops in the graph, and (same index) what their consistency tests need.
     closures: Vec<LoopClosure>,
+    loops: Vec<LoopHypothesis>,
+    /// Matched loops waiting for others to agree with them.
+    pending: Vec<MatchedLoop>,
+    /// Matched loops refused by a consistency test, timed out, or taken out again.
+    rejected: usize,
     /// Heading priors added since the last optimization.
     pending_priors: usize,
+}
+
+/// A loop the matcher found: what it reports, what the tests read, and its graph edge.
+#[derive(Debug, Clone, Copy)]
+struct MatchedLoop {
+    closure: LoopClosure,
+    hypothesis: LoopHypothesis,
+    edge: Edge,
 }
 
 impl LoopCloser {
@@ -170,6 +207,9 @@ impl LoopCloser {
             points: Vec::new(),
             travel_m: Vec::new(),
             closures: Vec::new(),
+            loops: Vec::new(),
+            pending: Vec::new(),
+            rejected: 0,
             pending_priors: 0,
         }
     }
@@ -261,11 +301,11 @@ impl LoopCloser {
         let mut closed = false;
         let window = self.window(index);
         for candidate in self.candidates(index, &window) {
-            if let Some(closure) = self.try_close(candidate, index, &window) {
-                self.closures.push(closure);
-                closed = true;
+            if let Some(found) = self.match_loop(candidate, index, &window) {
+                closed |= self.verify(found, index);
             }
         }
+        self.expire_pending(index);
         let periodic = self.pending_priors > 0
             && index.is_multiple_of(self.config.optimize_every_keyframes.max(1));
         let optimized = closed || periodic;
@@ -273,8 +313,157 @@ impl LoopCloser {
             let config = self.config.optimize;
             self.graph.optimize(&config);
             self.pending_priors = 0;
+            self.drop_disagreeing_loops();
         }
         KeyframeOutcome { index, optimized }
+    }
+
+    /// Matched loops refused so far: by a consistency test, for want of agreement within
+    /// `pending_keyframes`, or taken out of the graph after an optimization.
+    pub fn rejected(&self) -> usize {
+        self.rejected
+    }
+
+    /// The sequential edges' noise, as the consistency tests read it.
+    fn step_noise(&self) -> StepNoise {
+        StepNoise {
+            sigma_m: self.config.sequential_sigma_m,
+            sigma_per_m: self.config.sequential_sigma_per_m,
+            sigma_rad: self.config.sequential_sigma_rad,
+        }
+    }
+
+    /// What the route can have drifted between the ends of `h`: along the chain from its
+    /// older end, or from the newest of the last few loops in the graph that are older than
+    /// it (that loop tied the route to the old part of the map), whichever is tighter.
+    fn drift_since(&self, h: &LoopHypothesis) -> ChainVariance {
+        let nodes = self.graph.nodes();
+        let noise = self.step_noise();
+        let direct = chain_variance(nodes, h.from, h.to, &noise, nodes[h.to].position());
+        self.loops
+            .iter()
+            .rev()
+            .take(5)
+            .filter(|l| l.to < h.to)
+            .map(|l| {
+                let own = ChainVariance {
+                    position_m2: l.covariance[(0, 0)].max(l.covariance[(1, 1)]),
+                    heading_rad2: l.covariance[(2, 2)],
+                };
+                let new = chain_variance(nodes, l.to, h.to, &noise, nodes[h.to].position());
+                let old = chain_variance(nodes, l.from, h.from, &noise, nodes[h.from].position());
+                own.plus(new).plus(old)
+            })
+            .fold(direct, |best, v| {
+                if v.position_m2 < best.position_m2 {
+                    v
+                } else {
+                    best
+                }
+            })
+    }
+
+    /// The consistency tests of [`closure_consistency`] on a matched loop: refused when the
+    /// chain cannot explain it; into the graph with every waiting loop that agrees with it
+    /// once `min_consistent_loops` agree (or one loop already in the graph near it does);
+    /// otherwise it waits. True when loops entered the graph.
+    fn verify(&mut self, found: MatchedLoop, now: usize) -> bool {
+        let c = &self.config;
+        let nodes = self.graph.nodes();
+        let noise = self.step_noise();
+        let h = &found.hypothesis;
+        if !(prior_distance_sq(nodes, h, self.drift_since(h)) <= c.consistency_chi2) {
+            self.rejected += 1;
+            return false;
+        }
+        let agree = |a: &LoopHypothesis, b: &LoopHypothesis| {
+            pair_distance_sq(nodes, a, b, &noise) <= c.consistency_chi2
+        };
+        let recent = |l: &LoopHypothesis| now.saturating_sub(l.to) <= c.pending_keyframes;
+        let mut group = vec![*h];
+        let vouched = self
+            .loops
+            .iter()
+            .rev()
+            .filter(|l| recent(l))
+            .any(|l| agree(h, l));
+        let mut members = Vec::new();
+        for (i, p) in self.pending.iter().enumerate().rev() {
+            if group.iter().all(|g| agree(g, &p.hypothesis)) {
+                group.push(p.hypothesis);
+                members.push(i);
+            }
+        }
+        let needed = if vouched {
+            1
+        } else {
+            c.min_consistent_loops.max(1)
+        };
+        if group.len() < needed {
+            self.pending.push(found);
+            return false;
+        }
+        // `members` holds pending indices in descending order: removing them one by one
+        // leaves the others' indices valid.
+        let mut entering: Vec<MatchedLoop> = members
+            .into_iter()
+            .map(|i| self.pending.remove(i))
+            .collect();
+        entering.push(found);
+        entering.sort_by_key(|m| m.closure.to);
+        let mut entered = false;
+        for m in entering {
+            if self.graph.add_edge(m.edge).is_ok() {
+                self.closures.push(m.closure);
+                self.loops.push(m.hypothesis);
+                entered = true;
+            }
+        }
+        entered
+    }
+
+    /// Waiting loops that found no agreement within `pending_keyframes` are rejected.
+    fn expire_pending(&mut self, now: usize) {
+        let limit = self.config.pending_keyframes;
+        let before = self.pending.len();
+        self.pending
+            .retain(|p| now.saturating_sub(p.closure.to) <= limit);
+        self.rejected += before - self.pending.len();
+    }
+
+    /// After an optimization: the loop edge that disagrees most with the optimized graph,
+    /// if its squared Mahalanobis error is above `residual_chi2`, is taken out and the
+    /// graph optimized again (a few rounds at most: each removal changes the others).
+    fn drop_disagreeing_loops(&mut self) {
+        const ROUNDS: usize = 3;
+        for _ in 0..ROUNDS {
+            let nodes = self.graph.nodes();
+            let worst = self
+                .loops
+                .iter()
+                .enumerate()
+                .map(|(i, l)| {
+                    let e = Edge::new(l.from, l.to, l.measurement, Matrix3::identity());
+                    let r = e.error(&nodes[l.from], &nodes[l.to]);
+                    let d2 = l
+                        .covariance
+                        .try_inverse()
+                        .map_or(f64::INFINITY, |info| r.dot(&(info * r)));
+                    (d2, i)
+                })
+                .max_by(|a, b| a.0.total_cmp(&b.0));
+            let Some((_, i)) = worst.filter(|(d2, _)| *d2 > self.config.residual_chi2) else {
+                return;
+            };
+            let l = self.loops.remove(i);
+            self.closures.remove(i);
+            self.graph.remove_edge_where(|e| {
+                e.from == l.from && e.to == l.to && e.measurement == l.measurement
+            });
+            self.rejected += 1;
+            let config = self.config.optimize;
+            self.graph.optimize(&config);
+        }
     }
 
     /// The correlative search window for keyframe `new`: `window` widened by
@@ -310,9 +499,9 @@ impl LoopCloser {
             .collect()
     }
 
-    /// Matches keyframe `new` against the local map around `old`; the closure when the
-    /// match is good, after adding its edge.
-    fn try_close(&mut self, old: usize, new: usize, window: &SearchWindow) -> Option<LoopClosure> {
+    /// Matches keyframe `new` against the local map around `old`: the loop and its edge
+    /// when the match is good (not yet in the graph: [`Self::verify`] decides).
+    fn match_loop(&self, old: usize, new: usize, window: &SearchWindow) -> Option<MatchedLoop> {
         let c = &self.config;
         let nodes = self.graph.nodes();
         let anchor = nodes[old];
@@ -391,11 +580,22 @@ impl LoopCloser {
             information,
             huber: Some(c.loop_huber),
         };
-        self.graph.add_edge(edge).ok()?;
-        Some(LoopClosure {
+        let covariance = information.try_inverse()?;
+        let hypothesis = LoopHypothesis {
+            from: old,
+            to: new,
+            measurement: edge.measurement,
+            covariance: 0.5 * (covariance + covariance.transpose()),
+        };
+        let closure = LoopClosure {
             from: old,
             to: new,
             score,
+        };
+        Some(MatchedLoop {
+            closure,
+            hypothesis,
+            edge,
         })
     }
 }
@@ -539,5 +739,110 @@ mod tests {
             assert!(!out.optimized);
         }
         assert!(lc.closures().is_empty());
+    }
+
+    /// A corridor walked out along y = 0 and back along y = 0.2, keyframes every 0.5 m
+    /// (no scan points: the matcher never fires, the tests hand the loops in).
+    fn out_and_back() -> LoopCloser {
+        let mut lc = LoopCloser::new(LoopClosureConfig::default());
+        for i in 0..40 {
+            lc.add_keyframe(Pose2::new(0.5 * i as f64, 0.0, 0.0), &[], None);
+        }
+        for i in 0..40 {
+            let pose = Pose2::new(19.5 - 0.5 * i as f64, 0.2, std::f64::consts::PI);
+            lc.add_keyframe(pose, &[], None);
+        }
+        lc
+    }
+
+    /// The loop keyframe `to` (on the way back) → the keyframe `from` on the way out
+    /// `offset_m` ahead of the true one (a look-alike room), as the matcher reports it.
+    fn offered(lc: &LoopCloser, from: usize, to: usize, offset_m: f64) -> MatchedLoop {
+        let nodes = lc.graph.nodes();
+        // The truth: `to` seen from `from`, as the (exact) estimates say; a look-alike
+        // match puts it `offset_m` further along the corridor.
+        let truth = nodes[from].between(&nodes[to]);
+        let z = Pose2::new(truth.x - offset_m, truth.y, truth.heading_rad);
+        let information = information(0.05, 1f64.to_radians());
+        let covariance = information.try_inverse().unwrap();
+        MatchedLoop {
+            closure: LoopClosure {
+                from,
+                to,
+                score: 0.9,
+            },
+            hypothesis: LoopHypothesis {
+                from,
+                to,
+                measurement: z,
+                covariance,
+            },
+            edge: Edge {
+                from,
+                to,
+                measurement: z,
+                information,
+                huber: Some(2.0),
+            },
+        }
+    }
+
+    #[test]
+    fn a_look_alike_room_one_pitch_over_is_rejected_against_the_chain() {
+        // Keyframe 60 (x = 9.5 on the way back) matched the room 4 m further on, as a
+        // row of identical rooms allows: the route since (10 m back and forth) cannot
+        // have drifted 4 m, so the loop never enters the graph.
+        let mut lc = out_and_back();
+        let wrong = offered(&lc, 19, 60, 4.0);
+        assert!(!lc.verify(wrong, 60));
+        assert_eq!(lc.rejected(), 1);
+        assert!(lc.closures().is_empty() && lc.pending.is_empty());
+    }
+
+    #[test]
+    fn a_right_loop_waits_for_agreement_and_enters_with_it() {
+        let mut lc = out_and_back();
+        // One match alone only waits...
+        assert!(!lc.verify(offered(&lc, 19, 60, 0.0), 60));
+        assert_eq!(lc.pending.len(), 1);
+        // ...a second, from another keyframe, agrees but two are not yet enough...
+        assert!(!lc.verify(offered(&lc, 17, 62, 0.0), 62));
+        // ...a look-alike in between agrees with neither and waits on its own...
+        assert!(!lc.verify(offered(&lc, 16, 63, 1.0), 63));
+        assert_eq!(lc.pending.len(), 3);
+        // ...and the third right one brings the two others in with it.
+        assert!(lc.verify(offered(&lc, 15, 64, 0.0), 64));
+        let entered: Vec<(usize, usize)> = lc.closures().iter().map(|c| (c.from, c.to)).collect();
+        assert_eq!(entered, vec![(19, 60), (17, 62), (15, 64)]);
+        // Once loops are in, one more that agrees with them enters at once.
+        assert!(lc.verify(offered(&lc, 13, 66, 0.0), 66));
+        assert_eq!(lc.closures().len(), 4);
+        // The look-alike, never agreed with, times out.
+        lc.expire_pending(63 + LoopClosureConfig::default().pending_keyframes + 1);
+        assert!(lc.pending.is_empty());
+        assert_eq!(lc.rejected(), 1);
+    }
+
+    #[test]
+    fn a_loop_the_optimized_graph_disagrees_with_is_taken_out_again() {
+        let mut lc = out_and_back();
+        for (from, to) in [(19, 60), (17, 62), (15, 64)] {
+            lc.verify(offered(&lc, from, to, 0.0), to);
+        }
+        assert_eq!(lc.closures().len(), 3);
+        // A look-alike 2 m off forced into the graph beside them (as a looser test once
+        // let through): after optimizing, it disagrees with the rest and leaves.
+        let wrong = offered(&lc, 11, 68, 2.0);
+        lc.graph.add_edge(wrong.edge).unwrap();
+        lc.closures.push(wrong.closure);
+        lc.loops.push(wrong.hypothesis);
+        lc.graph.optimize(&OptimizeConfig::default());
+        lc.drop_disagreeing_loops();
+        let left: Vec<(usize, usize)> = lc.closures().iter().map(|c| (c.from, c.to)).collect();
+        assert_eq!(left, vec![(19, 60), (17, 62), (15, 64)]);
+        assert_eq!(lc.rejected(), 1);
+        assert_eq!(lc.graph.edges().len(), 79 + 3);
+        // The right loops hold the straight corridor where it was.
+        assert!(lc.poses()[68].position().distance(&Point2::new(5.5, 0.2)) < 0.05);
     }
 }

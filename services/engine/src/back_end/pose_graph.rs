@@ -77,7 +77,7 @@ impl Edge {
     }
 
     /// `e_ij = t2v(Z_ij⁻¹ (X_i⁻¹ X_j))` for node poses `xi`, `xj`. O(1).
-    fn error(&self, xi: &Pose2, xj: &Pose2) -> Vector3<f64> {
+    pub fn error(&self, xi: &Pose2, xj: &Pose2) -> Vector3<f64> {
         let d = self.measurement.inverse().compose(&xi.between(xj));
         let dtheta = xj.heading_rad - xi.heading_rad - self.measurement.heading_rad;
         Vector3::new(d.x, d.y, wrap_angle(dtheta))
@@ -198,6 +198,12 @@ impl PoseGraph {
         }
         self.edges.push(edge);
         Ok(self.edges.len() - 1)
+    }
+
+    /// Removes the first edge for which `matches` holds and returns it. O(m).
+    pub fn remove_edge_where(&mut self, matches: impl Fn(&Edge) -> bool) -> Option<Edge> {
+        let i = self.edges.iter().position(matches)?;
+        Some(self.edges.remove(i))
     }
 
     /// Number of nodes.

@@ -330,6 +330,7 @@ impl Mapper {
             .closer
             .add_keyframe(pose, &frame.points, heading_prior);
         self.health.loop_closures = back_end.closer.closures().len() as u32;
+        self.health.loop_closures_rejected = back_end.closer.rejected() as u32;
         if !outcome.optimized {
             return pose;
         }

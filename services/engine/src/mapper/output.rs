@@ -82,9 +82,14 @@ pub struct Health {
     pub localization_score: f64,
     /// Estimated scale of the drawing, meters per pixel (`sketch` only).
     pub meters_per_pixel: Option<f64>,
-    /// Loops closed so far (`sketch` with loop closure only).
+    /// Loops closed so far (the methods with loop closure: `graph`, `sketch`).
     #[serde(default)]
     pub loop_closures: u32,
+    /// Matched loops refused so far: they disagreed with the odometry chain or with the
+    /// other loops, found no second view agreeing within a few meters, or were taken out
+    /// of the graph after an optimization.
+    #[serde(default)]
+    pub loop_closures_rejected: u32,
     /// True once the first odometry message has arrived.
     pub initialized: bool,
 }

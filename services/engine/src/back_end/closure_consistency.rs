@@ -1,0 +1,269 @@
+//! Loop-closure consistency: does a matched loop agree with the odometry chain, and with
+//! another loop?
+//!
+//! Sits between the loop matcher ([`super::loop_closure`]) and the pose graph: a scan that
+//! matched a place seen long before is only a hypothesis. In a floor of identical rooms or
+//! doors in a row the matcher finds look-alikes that score as well as the truth, and one
+//! wrong loop optimized into the graph folds a map the front end had right. Two tests, both
+//! χ² tests of a 3-dof residual against the uncertainty of what produced it:
+//!
+//! 1. **Against the chain** ([`prior_distance_sq`]): the loop `Z_ab` (pose of keyframe `b`
+//!    in keyframe `a`'s frame) against the graph's current estimate `X_a⁻¹ X_b`:
+//!    `e = t2v(Z_ab⁻¹ X_a⁻¹ X_b)`, `d² = eᵀ (Σ_Z + Σ_chain)⁻¹ e`. The chain's covariance
+//!    is what the front end's drift along the route from `a` to `b` can explain
+//!    ([`chain_variance`]); a loop demanding a larger jump (one room over) is refused.
+//! 2. **Against another loop** ([`pair_distance_sq`]), the pairwise test of Mangelson,
+//!    Dominic, Eustice, Vasudevan, "Pairwise Consistent Measurement Set Maximization for
+//!    Robust Multi-robot Map Merging" (ICRA 2018), eq. (5)–(6): loops `a₁→b₁` and `a₂→b₂`
+//!    with the chains `b₁→b₂` and `a₂→a₁` make a cycle, and the loop `a₂→b₂` predicted from
+//!    the other, `Ẑ₂ = (X_a₂⁻¹ X_a₁) Z₁ (X_b₁⁻¹ X_b₂)`, must agree with the measured one:
+//!    `e = t2v(Z₂⁻¹ Ẑ₂)`. Two wrong matches rarely agree; a right loop seen from two
+//!    keyframes always does.
+//!
+//! # The chain's covariance
+//! Each sequential step `k` (keyframe `k−1 → k`, length `l_k`) adds independent noise of
+//! standard deviation `σ_m + σ_per_m·l_k` in position and `σ_rad` in heading, the same
+//! figures that weigh the graph's sequential edges. A heading error at step `k` swings the
+//! chain's end about keyframe `k`, so to first order the end's position variance is
+//!
+//! `σ²_pos = Σ_k (σ_m + σ_per_m l_k)² + σ²_rad |p_end − p_k|²`,   `σ²_θ = Σ_k σ²_rad`
+//!
+//! (isotropic: the direction of the swing is dropped, which errs towards accepting). Cost:
+//! O(|to − from|) per chain.
+//!
+//! Pure: values in, values out.
+
+use nalgebra::{Matrix3, Vector3};
+use sketchslam_types::{Point2, Pose2, wrap_angle};
+
+/// A matched loop, not yet in the graph.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopHypothesis {
+    /// The earlier keyframe.
+    pub from: usize,
+    /// The newer keyframe.
+    pub to: usize,
+    /// Pose of `to` in the frame of `from`, as the matcher found it.
+    pub measurement: Pose2,
+    /// Covariance of the measurement's error `t2v(Z⁻¹ X_from⁻¹ X_to)` in (x, y, heading),
+    /// the inverse of the loop edge's information.
+    pub covariance: Matrix3<f64>,
+}
+
+/// Noise of one sequential step of the front end (the graph's sequential edges).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepNoise {
+    /// Position standard deviation of a step, meters...
+    pub sigma_m: f64,
+    /// ...plus this much per meter of the step.
+    pub sigma_per_m: f64,
+    /// Heading standard deviation of a step, radians.
+    pub sigma_rad: f64,
+}
+
+/// Variance of a chain's end as seen from its start (module doc).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChainVariance {
+    /// Position variance (isotropic), m².
+    pub position_m2: f64,
+    /// Heading variance, rad².
+    pub heading_rad2: f64,
+}
+
+impl ChainVariance {
+    /// No uncertainty.
+    pub const ZERO: ChainVariance = ChainVariance {
+        position_m2: 0.0,
+        heading_rad2: 0.0,
+    };
+
+    /// The sum of two independent chains.
+    pub fn plus(self, other: ChainVariance) -> ChainVariance {
+        ChainVariance {
+            position_m2: self.position_m2 + other.position_m2,
+            heading_rad2: self.heading_rad2 + other.heading_rad2,
+        }
+    }
+
+    /// As a diagonal (x, y, heading) covariance.
+    fn matrix(&self) -> Matrix3<f64> {
+        Matrix3::from_diagonal(&Vector3::new(
+            self.position_m2,
+            self.position_m2,
+            self.heading_rad2,
+        ))
+    }
+}
+
+/// The variance the sequential steps between keyframes `a` and `b` (either order) add to
+/// a point at `lever_end` carried along them: the module doc's sum over the steps
+/// `min(a, b) + 1 ..= max(a, b)`, with `nodes` the keyframes' current estimates. O(|b − a|).
+pub fn chain_variance(
+    nodes: &[Pose2],
+    a: usize,
+    b: usize,
+    noise: &StepNoise,
+    lever_end: Point2,
+) -> ChainVariance {
+    let (lo, hi) = (a.min(b), a.max(b).min(nodes.len().saturating_sub(1)));
+    let rad2 = noise.sigma_rad * noise.sigma_rad;
+    let mut v = ChainVariance::ZERO;
+    for k in lo + 1..=hi {
+        let p = nodes[k].position();
+        let step_m = p.distance(&nodes[k - 1].position());
+        let sigma_m = noise.sigma_m + noise.sigma_per_m * step_m;
+        let lever_m = lever_end.distance(&p);
+        v.position_m2 += sigma_m * sigma_m + rad2 * lever_m * lever_m;
+        v.heading_rad2 += rad2;
+    }
+    v
+}
+
+/// `t2v(Z⁻¹ · actual)`: how far `actual` is from the measurement `z`, in `z`'s frame, the
+/// heading wrapped.
+fn residual(z: &Pose2, actual: &Pose2) -> Vector3<f64> {
+    let d = z.inverse().compose(actual);
+    Vector3::new(d.x, d.y, wrap_angle(actual.heading_rad - z.heading_rad))
+}
+
+/// `eᵀ Σ⁻¹ e`; infinite when `Σ` is not invertible.
+fn mahalanobis_sq(e: &Vector3<f64>, cov: &Matrix3<f64>) -> f64 {
+    match cov.try_inverse() {
+        Some(info) => e.dot(&(info * e)),
+        None => f64::INFINITY,
+    }
+}
+
+/// Test 1 of the module doc: the squared Mahalanobis distance between the loop and the
+/// graph's estimate, under the loop's covariance plus `chain` (what the route between the
+/// loop's ends can have drifted). Compare with a χ² quantile of 3 degrees of freedom. O(1).
+pub fn prior_distance_sq(nodes: &[Pose2], loop_: &LoopHypothesis, chain: ChainVariance) -> f64 {
+    let estimate = nodes[loop_.from].between(&nodes[loop_.to]);
+    let e = residual(&loop_.measurement, &estimate);
+    mahalanobis_sq(&e, &(loop_.covariance + chain.matrix()))
+}
+
+/// Test 2 of the module doc: the squared Mahalanobis distance between loop `second` and
+/// its prediction from loop `first` through the chains between their ends (the graph's
+/// current estimates, with [`chain_variance`]'s uncertainty). Symmetric in the sense that
+/// matters: the newer loop is predicted from the older. O(|Δto| + |Δfrom|).
+pub fn pair_distance_sq(
+    nodes: &[Pose2],
+    first: &LoopHypothesis,
+    second: &LoopHypothesis,
+    noise: &StepNoise,
+) -> f64 {
+    let (c1, c2) = if first.to <= second.to {
+        (first, second)
+    } else {
+        (second, first)
+    };
+    let (a1, b1, a2, b2) = (c1.from, c1.to, c2.from, c2.to);
+    // Ẑ₂ = (X_a₂⁻¹ X_a₁) Z₁ (X_b₁⁻¹ X_b₂)
+    let predicted = nodes[a2]
+        .between(&nodes[a1])
+        .compose(&c1.measurement)
+        .compose(&nodes[b1].between(&nodes[b2]));
+    let e = residual(&c2.measurement, &predicted);
+    // Z₁'s own uncertainty at b₂: its position part (widest direction) and its heading
+    // swinging the chain b₁ → b₂ about b₁.
+    let c1_pos = c1
+        .covariance
+        .fixed_view::<2, 2>(0, 0)
+        .into_owned()
+        .symmetric_eigenvalues()
+        .max()
+        .max(0.0);
+    let c1_rad2 = c1.covariance[(2, 2)].max(0.0);
+    let swing_m = nodes[b2].position().distance(&nodes[b1].position());
+    let first_loop = ChainVariance {
+        position_m2: c1_pos + c1_rad2 * swing_m * swing_m,
+        heading_rad2: c1_rad2,
+    };
+    // The new chain ends at b₂; the old chain's end is carried to where b₂ is in the old
+    // part of the map, near a₂.
+    let new_chain = chain_variance(nodes, b1, b2, noise, nodes[b2].position());
+    let old_chain = chain_variance(nodes, a1, a2, noise, nodes[a2].position());
+    let cov = c2.covariance + first_loop.plus(new_chain).plus(old_chain).matrix();
+    mahalanobis_sq(&e, &cov)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const NOISE: StepNoise = StepNoise {
+        sigma_m: 0.02,
+        sigma_per_m: 0.0,
+        sigma_rad: 0.01,
+    };
+
+    fn straight(n: usize) -> Vec<Pose2> {
+        (0..n).map(|i| Pose2::new(i as f64, 0.0, 0.0)).collect()
+    }
+
+    fn loop_(from: usize, to: usize, z: Pose2, sigma_m: f64, sigma_rad: f64) -> LoopHypothesis {
+        LoopHypothesis {
+            from,
+            to,
+            measurement: z,
+            covariance: Matrix3::from_diagonal(&Vector3::new(
+                sigma_m * sigma_m,
+                sigma_m * sigma_m,
+                sigma_rad * sigma_rad,
+            )),
+        }
+    }
+
+    #[test]
+    fn chain_variance_by_hand() {
+        // Three unit steps along x, ending at x = 3: position variance
+        // 3·0.02² + 0.01²·(2² + 1² + 0²) = 0.0012 + 0.0005; heading 3·0.01².
+        let nodes = straight(4);
+        let v = chain_variance(&nodes, 0, 3, &NOISE, nodes[3].position());
+        assert!((v.position_m2 - 0.0017).abs() < 1e-12, "{v:?}");
+        assert!((v.heading_rad2 - 0.0003).abs() < 1e-12, "{v:?}");
+        // The order of the ends does not matter, and an empty chain adds nothing.
+        assert_eq!(chain_variance(&nodes, 3, 0, &NOISE, nodes[3].position()), v);
+        assert_eq!(
+            chain_variance(&nodes, 2, 2, &NOISE, Point2::new(0.0, 0.0)),
+            ChainVariance::ZERO
+        );
+    }
+
+    #[test]
+    fn a_loop_that_agrees_with_the_chain_passes_and_one_a_room_over_does_not() {
+        let nodes = straight(11);
+        let chain = chain_variance(&nodes, 0, 10, &NOISE, nodes[10].position());
+        // The estimate says keyframe 10 is 10 m ahead of keyframe 0.
+        let right = loop_(0, 10, Pose2::new(10.05, 0.02, 0.005), 0.05, 0.02);
+        let d_right = prior_distance_sq(&nodes, &right, chain);
+        // Residual (−0.05, −0.02, −0.005) against σ² = 0.05² + 0.0075 (pos), 0.02² + 0.001.
+        let pos_var = 0.0025 + chain.position_m2;
+        let head_var = 0.0004 + chain.heading_rad2;
+        let by_hand = (0.05f64.powi(2) + 0.02f64.powi(2)) / pos_var + 0.005f64.powi(2) / head_var;
+        assert!((d_right - by_hand).abs() < 1e-3, "{d_right} vs {by_hand}");
+        assert!(d_right < 11.34);
+        let room_over = loop_(0, 10, Pose2::new(15.0, 0.0, 0.0), 0.05, 0.02);
+        assert!(prior_distance_sq(&nodes, &room_over, chain) > 100.0);
+    }
+
+    #[test]
+    fn two_views_of_one_loop_agree_and_a_look_alike_does_not() {
+        // A route along x and back along y = 0.1: keyframes 10.. revisit 9..0.
+        let mut nodes = straight(10);
+        for i in 0..10 {
+            nodes.push(Pose2::new(9.0 - i as f64, 0.1, std::f64::consts::PI));
+        }
+        // The truth: keyframe 12 (at x = 7) sees keyframe 7 from 0.1 m to its left,
+        // turned half a turn; keyframe 14 (x = 5) sees keyframe 5 the same way.
+        let z = Pose2::new(0.0, 0.1, std::f64::consts::PI);
+        let a = loop_(7, 12, z, 0.05, 0.02);
+        let b = loop_(5, 14, z, 0.05, 0.02);
+        assert!(pair_distance_sq(&nodes, &a, &b, &NOISE) < 1.0);
+        assert!(pair_distance_sq(&nodes, &b, &a, &NOISE) < 1.0);
+        // A look-alike: keyframe 14 matched keyframe 2 as if it were there (3 m off).
+        let wrong = loop_(2, 14, z, 0.05, 0.02);
+        assert!(pair_distance_sq(&nodes, &a, &wrong, &NOISE) > 100.0);
+    }
+}
