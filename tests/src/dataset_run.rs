@@ -19,6 +19,7 @@ use crate::real_process::{StreamSource, map_through_processes};
 use crate::relations::{Relation, score_relations};
 use crate::run::{RunResult, read_map_occupied_points, read_trajectory_csv};
 use crate::run_loop::map_in_process;
+use crate::run_method::RunMethod;
 use anyhow::{Context, Result};
 use image::{Rgb, RgbImage};
 use sketchslam_engine::mapper::Method;
@@ -52,12 +53,13 @@ pub fn dataset_relations(dataset: &Dataset) -> Result<Vec<Relation>> {
 /// is called as scans are processed.
 pub fn run_dataset_in_process(
     dataset: &Dataset,
-    method: Method,
+    method: impl Into<RunMethod>,
     sketch: Option<&SketchConfig>,
     out_dir: &Path,
     max_scans: Option<u64>,
     progress: impl FnMut(u64, u64),
 ) -> Result<RunResult> {
+    let method: RunMethod = method.into();
     let replay = Replay::new(dataset)?;
     let scans = replay.scan_count();
     let run = map_in_process(
@@ -156,6 +158,7 @@ pub fn score_dataset_artifacts(
         scans_per_s: 0.0,
         recoveries: 0,
         loop_closures: 0,
+        loop_closures_rejected: 0,
         scan_ms_mean: None,
         scan_ms_p99: None,
         realtime_factor: None,

@@ -3,6 +3,7 @@
 //! binaries.
 
 pub mod dataset_run;
+pub mod generated;
 pub mod metrics;
 pub mod overlay;
 pub mod processes;
@@ -10,6 +11,7 @@ pub mod real_process;
 pub mod relations;
 pub mod run;
 pub mod run_loop;
+pub mod run_method;
 pub mod service_process;
 pub mod session_request;
 pub mod sketch_truth;

@@ -272,6 +272,7 @@ pub fn map_through_processes(
             wall_s,
             recoveries: stopped.recoveries as u32,
             loop_closures: stopped.loop_closures as u32,
+            loop_closures_rejected: stopped.loop_closures_rejected as u32,
         },
         final_pose,
         published_sketch_poses,

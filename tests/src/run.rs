@@ -8,6 +8,7 @@
 use crate::metrics::{self, StampedPose, WallGrid};
 use crate::overlay;
 use crate::run_loop::map_in_process;
+use crate::run_method::RunMethod;
 use crate::sketch_truth::fill_sketch_pose_scores;
 use anyhow::{Context, Result};
 use serde::Serialize;
@@ -67,9 +68,12 @@ pub struct RunResult {
     pub scans_per_s: f64,
     /// Recoveries of MCL on the sketch.
     pub recoveries: u32,
-    /// Loops closed by the `sketch` method's back end.
+    /// Loops closed by the back end (`graph`, `sketch`).
     #[serde(default)]
     pub loop_closures: u32,
+    /// Matched loops the back end refused.
+    #[serde(default)]
+    pub loop_closures_rejected: u32,
     /// Mean engine time per scan, milliseconds (in-process runs).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub scan_ms_mean: Option<f64>,
@@ -113,7 +117,7 @@ pub struct Truth {
 }
 
 /// A run's name inside its scenario's output folder: `method` or `sketch-NAME`.
-pub fn run_name(method: Method, sketch: Option<&str>) -> String {
+pub fn run_name(method: impl std::fmt::Display, sketch: Option<&str>) -> String {
     match sketch {
         Some(name) => format!("{method}-{name}"),
         None => method.to_string(),
@@ -143,19 +147,21 @@ pub fn sketch_prior(cfg: &SketchConfig) -> Result<SketchPrior> {
 /// processed.
 pub fn run_in_process(
     scenario: &Scenario,
-    method: Method,
+    method: impl Into<RunMethod>,
     sketch: Option<&SketchConfig>,
     out_dir: &Path,
     max_scans: Option<u64>,
     progress: impl FnMut(u64, u64),
 ) -> Result<RunResult> {
+    let run_method: RunMethod = method.into();
+    let method = run_method.method;
     let world = World::load(&scenario.world.image, scenario.world.resolution_m)?;
     let sim = Simulation::new(scenario)?;
     let scans = sim.scan_count();
     let run = map_in_process(
         sim,
         scans,
-        method,
+        run_method,
         sketch,
         scenario.seed,
         out_dir,
@@ -173,7 +179,7 @@ pub fn run_in_process(
         walls,
     };
     let mut result = score_artifacts(out_dir, &truth)?;
-    run.fill(&mut result, &scenario.name, method, sketch);
+    run.fill(&mut result, &scenario.name, run_method, sketch);
     if let Some(cfg) = sketch.filter(|_| method == Method::Sketch) {
         fill_sketch_pose_scores(
             &mut result,
@@ -249,6 +255,7 @@ pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
         scans_per_s: 0.0,
         recoveries: 0,
         loop_closures: 0,
+        loop_closures_rejected: 0,
         scan_ms_mean: None,
         scan_ms_p99: None,
         realtime_factor: None,

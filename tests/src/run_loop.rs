@@ -10,10 +10,11 @@
 
 use crate::metrics::StampedPose;
 use crate::run::{ONLINE_TRAJECTORY_FILE, RunResult, sketch_prior};
+use crate::run_method::RunMethod;
 use anyhow::Result;
 use sketchslam_api::SketchTrajectoryResponse;
 use sketchslam_engine::mapper::{
-    DrawingPoseSource, Mapper, MapperConfig, Method, TrajectoryPoint, trajectory_csv,
+    DrawingPoseSource, Mapper, Method, TrajectoryPoint, trajectory_csv,
 };
 use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::SimStep;
@@ -47,22 +48,21 @@ pub struct InProcessRun {
 pub fn map_in_process(
     steps: impl IntoIterator<Item = SimStep>,
     scan_count: u64,
-    method: Method,
+    method: impl Into<RunMethod>,
     sketch: Option<&SketchConfig>,
     seed: u64,
     out_dir: &Path,
     max_scans: Option<u64>,
     mut progress: impl FnMut(u64, u64),
 ) -> Result<InProcessRun> {
+    let run_method: RunMethod = method.into();
+    let method = run_method.method;
     let prior = match (method, sketch) {
         (Method::Sketch, Some(cfg)) => Some(sketch_prior(cfg)?),
         (Method::Sketch, None) => anyhow::bail!("the sketch method needs a sketch"),
         _ => None,
     };
-    let config = MapperConfig {
-        seed,
-        ..MapperConfig::default()
-    };
+    let config = run_method.config(seed);
     let mut mapper = Mapper::new(method, prior, config)?;
     let total = max_scans.map_or(scan_count, |m| m.min(scan_count));
     let mut truth = Vec::new();
@@ -152,6 +152,7 @@ impl InProcessRun {
             wall_s: self.mapping_s,
             recoveries: health.recoveries,
             loop_closures: health.loop_closures,
+            loop_closures_rejected: health.loop_closures_rejected,
         }
     }
 
@@ -161,7 +162,7 @@ impl InProcessRun {
         &self,
         result: &mut RunResult,
         name: &str,
-        method: Method,
+        method: impl Into<RunMethod>,
         sketch: Option<&SketchConfig>,
     ) {
         self.figures().fill(result, name, method, sketch);
@@ -188,6 +189,8 @@ pub struct RunFigures {
     pub recoveries: u32,
     /// Loops closed.
     pub loop_closures: u32,
+    /// Matched loops refused.
+    pub loop_closures_rejected: u32,
 }
 
 impl RunFigures {
@@ -196,9 +199,10 @@ impl RunFigures {
         &self,
         result: &mut RunResult,
         name: &str,
-        method: Method,
+        method: impl Into<RunMethod>,
         sketch: Option<&SketchConfig>,
     ) {
+        let method: RunMethod = method.into();
         result.scenario = name.to_string();
         result.method = method.to_string();
         result.sketch = sketch.map(|s| s.name.clone());
@@ -207,5 +211,6 @@ impl RunFigures {
         result.scans_per_s = self.scans as f64 / self.wall_s.max(1e-9);
         result.recoveries = self.recoveries;
         result.loop_closures = self.loop_closures;
+        result.loop_closures_rejected = self.loop_closures_rejected;
     }
 }

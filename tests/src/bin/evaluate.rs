@@ -13,26 +13,41 @@
 //! against the log's corrected poses and by the dataset's relations (no map error or
 //! completeness: no true walls), and the published relation errors are printed beside.
 //! Both modes work on datasets (`simulator replay` in the real-process mode).
+//!
+//! `evaluate --generated K [--seed S] [--kind office,corridor,hall] [--lidar good,cheap]
+//! [--method graph,graph-open,...] [--jobs N]`: K worlds from the simulator's generator
+//! (world i has seed S + i, kinds and LiDARs cycled), mapped in-process on N threads; besides
+//! the table, each score's median, 90th percentile and worst per method, the worlds where
+//! closing loops made the map worse than leaving them open (with `graph-open` in the
+//! methods), and the worst worlds' folders kept for a look.
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use sketchslam_engine::mapper::Method;
 use sketchslam_simulator::dataset::{DATASET_FILE, Dataset};
+use sketchslam_simulator::generate::{Kind, LidarGrade, generate};
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
 use sketchslam_tests::dataset_run::{run_dataset_in_process, run_dataset_real_process};
+use sketchslam_tests::generated::{
+    loops_that_hurt, plan_worlds, summarize, summary_table, worst_worlds,
+};
 use sketchslam_tests::real_process::run_real_process;
 use sketchslam_tests::relations::published_relation_errors;
 use sketchslam_tests::run::{RunResult, run_in_process, run_name};
+use sketchslam_tests::run_method::RunMethod;
 use std::path::PathBuf;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 #[derive(Parser, Debug)]
 #[command(about = "Map scenarios with sketchslam and score the maps against the truth")]
 struct Args {
     /// Scenario folders (each with a scenario.toml) or dataset folders (dataset.toml).
-    #[arg(required = true)]
+    #[arg(required_unless_present = "generated")]
     scenarios: Vec<PathBuf>,
-    /// Methods to run, comma-separated.
+    /// Methods to run, comma-separated (`graph-open`: `graph` without loop closure,
+    /// in-process only).
     #[arg(
         long,
         value_delimiter = ',',
@@ -55,30 +70,67 @@ struct Args {
     /// `slam-service` and `simulator` and going through iceoryx2 and HTTP.
     #[arg(long)]
     in_process: bool,
+    /// Generate this many worlds (`simulator generate`) into `OUT/worlds/` and map them
+    /// too (in-process); prints each score's distribution per method.
+    #[arg(long)]
+    generated: Option<usize>,
+    /// Seed of the first generated world (world i has seed + i).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Kinds of generated worlds, comma-separated, cycled through.
+    #[arg(long, value_delimiter = ',', default_value = "office,corridor,hall")]
+    kind: Vec<String>,
+    /// LiDAR grades of generated worlds, comma-separated, cycled through after the kinds.
+    #[arg(long, value_delimiter = ',', default_value = "good,cheap")]
+    lidar: Vec<String>,
+    /// Runs at once (in-process runs only); default: the machine's cores.
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// Generated worlds: keep the run artifacts of this many worst worlds per method
+    /// (by map error) and remove the others' (the worlds' folders stay).
+    #[arg(long, default_value_t = 3)]
+    keep_worst: usize,
 }
+
+/// One run of the plan.
+type PlannedRun = (Target, RunMethod, Option<String>);
 
 fn main() -> Result<()> {
     let args = Args::parse();
-    let methods: Vec<Method> = args
+    let methods: Vec<RunMethod> = args
         .method
         .iter()
-        .map(|m| m.parse())
-        .collect::<Result<_, _>>()?;
-    let mut plan = Vec::new();
+        .map(|m| m.parse().map_err(anyhow::Error::msg))
+        .collect::<Result<_>>()?;
+    let in_process = args.in_process || args.generated.is_some();
+    if let Some(open) = methods.iter().find(|m| !m.loop_closure && !in_process) {
+        bail!("{open}: loops can only be left open in-process (add --in-process)");
+    }
+    let mut targets = Vec::new();
     let mut datasets = Vec::new();
     for dir in &args.scenarios {
-        let target = if dir.join(DATASET_FILE).is_file() {
+        if dir.join(DATASET_FILE).is_file() {
             let dataset =
                 Dataset::load(dir).with_context(|| format!("loading {}", dir.display()))?;
             datasets.push(dataset.clone());
-            Target::Dataset(dataset)
+            targets.push(Target::Dataset(dataset));
         } else {
-            Target::Scenario(
+            targets.push(Target::Scenario(
                 Scenario::load(dir).with_context(|| format!("loading {}", dir.display()))?,
-            )
-        };
+            ));
+        }
+    }
+    let mut generated_names = Vec::new();
+    if let Some(count) = args.generated {
+        for world in generate_worlds(&args, count)? {
+            generated_names.push(world.name.clone());
+            targets.push(Target::Scenario(world));
+        }
+    }
+    let mut plan: Vec<PlannedRun> = Vec::new();
+    for target in &targets {
         for &method in &methods {
-            if method == Method::Sketch {
+            if method.method == Method::Sketch {
                 let sketches: Vec<_> = target
                     .sketches()
                     .iter()
@@ -101,89 +153,55 @@ fn main() -> Result<()> {
             Err(e) => bail!("{}: {e}", dataset.name),
         }
     }
-    let mut results: Vec<RunResult> = Vec::new();
-    for (i, (target, method, sketch)) in plan.iter().enumerate() {
-        let name = run_name(*method, sketch.as_deref());
-        let bar = ProgressBar::new(0).with_style(
-            ProgressStyle::with_template(
-                "{prefix} [{bar:30}] {pos}/{len} scans {per_sec} eta {eta}",
-            )
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        bar.set_prefix(format!(
-            "[{}/{}] {}/{}",
-            i + 1,
-            plan.len(),
-            target.name(),
-            name
-        ));
-        let out_dir = args.out.join(target.name()).join(&name);
-        let sketch_cfg = sketch
-            .as_deref()
-            .and_then(|n| target.sketches().iter().find(|s| s.name == n));
-        let progress = |done, total| {
-            bar.set_length(total);
-            bar.set_position(done);
-        };
-        let scenario = match target {
-            Target::Dataset(dataset) => {
-                let result = if args.in_process {
-                    run_dataset_in_process(
-                        dataset,
-                        *method,
-                        sketch_cfg,
-                        &out_dir,
-                        args.max_scans,
-                        progress,
-                    )
-                } else {
-                    run_dataset_real_process(
-                        dataset,
-                        *method,
-                        sketch_cfg,
-                        &out_dir,
-                        args.max_scans,
-                        progress,
-                    )
-                };
-                bar.finish_and_clear();
-                match result {
-                    Ok(r) => results.push(r),
-                    Err(e) => eprintln!("{}/{}: failed: {e:#}", dataset.name, name),
-                }
-                continue;
-            }
-            Target::Scenario(scenario) => scenario,
-        };
-        let result = if args.in_process {
-            run_in_process(
-                scenario,
-                *method,
-                sketch_cfg,
-                &out_dir,
-                args.max_scans,
-                progress,
-            )
-        } else {
-            run_real_process(
-                scenario,
-                *method,
-                sketch_cfg,
-                &out_dir,
-                args.max_scans,
-                progress,
-            )
-        };
-        bar.finish_and_clear();
-        match result {
-            Ok(r) => results.push(r),
-            Err(e) => eprintln!("{}/{}: failed: {e:#}", scenario.name, name),
-        }
-    }
+    let jobs = args
+        .jobs
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .max(1);
+    let results = if in_process && jobs > 1 && plan.len() > 1 {
+        run_parallel(&args, &plan, jobs)
+    } else {
+        run_sequential(&args, &plan, in_process)
+    };
     print_table(&results);
     print_relations(&results);
+    let generated: Vec<RunResult> = results
+        .iter()
+        .filter(|r| generated_names.contains(&r.scenario))
+        .cloned()
+        .collect();
+    let summaries = summarize(&generated);
+    if !generated.is_empty() {
+        println!();
+        println!(
+            "generated worlds: {} (seeds {}..{}, kinds {}, lidar {})",
+            generated_names.len(),
+            args.seed,
+            args.seed + generated_names.len() as u64,
+            args.kind.join(","),
+            args.lidar.join(",")
+        );
+        print!("{}", summary_table(&summaries));
+        for method in methods.iter().filter(|m| m.loop_closure) {
+            let name = method.to_string();
+            if methods
+                .iter()
+                .any(|m| m.to_string() == format!("{name}-open"))
+            {
+                let hurt = loops_that_hurt(&generated, &name, 0.005);
+                println!(
+                    "{name}: closing loops made the map worse (by > 5 mm) on {} of {} worlds{}",
+                    hurt.len(),
+                    generated_names.len(),
+                    hurt.iter()
+                        .map(|(w, c, o)| format!("\n  {w}: {c:.3} m closed vs {o:.3} m open"))
+                        .collect::<String>()
+                );
+            }
+        }
+        keep_worst_artifacts(&args, &generated, &methods);
+    }
     if let Some(path) = &args.json {
-        let json = serde_json::json!({ "runs": results });
+        let json = serde_json::json!({ "runs": results, "generated": summaries });
         std::fs::write(path, serde_json::to_string_pretty(&json)?)?;
         println!("JSON: {}", path.display());
     }
@@ -195,6 +213,190 @@ fn main() -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// Generates `count` worlds of `args`' plan into `OUT/worlds/` and loads them.
+fn generate_worlds(args: &Args, count: usize) -> Result<Vec<Scenario>> {
+    let kinds: Vec<Kind> = args
+        .kind
+        .iter()
+        .map(|k| k.parse())
+        .collect::<Result<_, _>>()?;
+    let lidars: Vec<LidarGrade> = args
+        .lidar
+        .iter()
+        .map(|l| l.parse())
+        .collect::<Result<_, _>>()?;
+    let mut worlds = Vec::new();
+    for options in plan_worlds(count, args.seed, &kinds, &lidars) {
+        let kind = options.kind.resolve(options.seed);
+        let dir = args
+            .out
+            .join("worlds")
+            .join(format!("gen-{kind}-{}-{}", options.lidar, options.seed));
+        let world = generate(&options, &dir)
+            .with_context(|| format!("generating world {options:?} into {}", dir.display()))?;
+        let mut scenario = Scenario::load(&world.dir)?;
+        // One name per world (the same seed can be generated with both LiDARs).
+        scenario.name = dir
+            .file_name()
+            .map_or(world.name.clone(), |n| n.to_string_lossy().into_owned());
+        eprintln!(
+            "generated {} ({} m of route)",
+            scenario.name,
+            world.route.length_m.round()
+        );
+        worlds.push(scenario);
+    }
+    Ok(worlds)
+}
+
+/// One run of the plan: in this process or through the real processes.
+fn run_one(
+    args: &Args,
+    (target, method, sketch): &PlannedRun,
+    in_process: bool,
+    progress: impl FnMut(u64, u64),
+) -> Result<RunResult> {
+    let name = run_name(method, sketch.as_deref());
+    let out_dir = args.out.join(target.name()).join(&name);
+    let sketch_cfg = sketch
+        .as_deref()
+        .and_then(|n| target.sketches().iter().find(|s| s.name == n));
+    match (target, in_process) {
+        (Target::Dataset(dataset), true) => run_dataset_in_process(
+            dataset,
+            *method,
+            sketch_cfg,
+            &out_dir,
+            args.max_scans,
+            progress,
+        ),
+        (Target::Dataset(dataset), false) => run_dataset_real_process(
+            dataset,
+            method.method,
+            sketch_cfg,
+            &out_dir,
+            args.max_scans,
+            progress,
+        ),
+        (Target::Scenario(scenario), true) => run_in_process(
+            scenario,
+            *method,
+            sketch_cfg,
+            &out_dir,
+            args.max_scans,
+            progress,
+        ),
+        (Target::Scenario(scenario), false) => run_real_process(
+            scenario,
+            method.method,
+            sketch_cfg,
+            &out_dir,
+            args.max_scans,
+            progress,
+        ),
+    }
+}
+
+/// The plan one run after the other, with a progress bar each.
+fn run_sequential(args: &Args, plan: &[PlannedRun], in_process: bool) -> Vec<RunResult> {
+    let mut results = Vec::new();
+    for (i, run) in plan.iter().enumerate() {
+        let name = run_name(run.1, run.2.as_deref());
+        let bar = ProgressBar::new(0).with_style(
+            ProgressStyle::with_template(
+                "{prefix} [{bar:30}] {pos}/{len} scans {per_sec} eta {eta}",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        bar.set_prefix(format!(
+            "[{}/{}] {}/{}",
+            i + 1,
+            plan.len(),
+            run.0.name(),
+            name
+        ));
+        let progress = |done, total| {
+            bar.set_length(total);
+            bar.set_position(done);
+        };
+        let result = run_one(args, run, in_process, progress);
+        bar.finish_and_clear();
+        match result {
+            Ok(r) => results.push(r),
+            Err(e) => eprintln!("{}/{}: failed: {e:#}", run.0.name(), name),
+        }
+    }
+    results
+}
+
+/// The plan on `jobs` threads (in-process runs), a line on stderr per finished run; the
+/// results in plan order.
+fn run_parallel(args: &Args, plan: &[PlannedRun], jobs: usize) -> Vec<RunResult> {
+    let next = AtomicUsize::new(0);
+    let done = AtomicUsize::new(0);
+    let slots: Vec<Mutex<Option<RunResult>>> = plan.iter().map(|_| Mutex::new(None)).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..jobs.min(plan.len()) {
+            scope.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(run) = plan.get(i) else { break };
+                    let name = run_name(run.1, run.2.as_deref());
+                    let result = run_one(args, run, true, |_, _| {});
+                    let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+                    match result {
+                        Ok(r) => {
+                            eprintln!(
+                                "[{n}/{}] {}/{name}: map error {:.3} m, ATE {:.3} m, {} loops ({} rejected)",
+                                plan.len(),
+                                run.0.name(),
+                                r.map_error_m,
+                                r.ate_rmse_m,
+                                r.loop_closures,
+                                r.loop_closures_rejected
+                            );
+                            if let Ok(mut slot) = slots[i].lock() {
+                                *slot = Some(r);
+                            }
+                        }
+                        Err(e) => eprintln!("[{n}/{}] {}/{name}: failed: {e:#}", plan.len(), run.0.name()),
+                    }
+                }
+            });
+        }
+    });
+    slots
+        .into_iter()
+        .filter_map(|s| s.into_inner().ok().flatten())
+        .collect()
+}
+
+/// Removes the run artifacts of the generated worlds that are not among the `keep_worst`
+/// worst of some method (the worlds' own folders stay, to map them again).
+fn keep_worst_artifacts(args: &Args, generated: &[RunResult], methods: &[RunMethod]) {
+    let mut keep: Vec<String> = Vec::new();
+    for m in methods {
+        for w in worst_worlds(generated, &m.to_string(), args.keep_worst) {
+            if !keep.contains(&w) {
+                keep.push(w);
+            }
+        }
+    }
+    let mut names: Vec<&str> = generated.iter().map(|r| r.scenario.as_str()).collect();
+    names.dedup();
+    for name in names {
+        if !keep.iter().any(|k| k == name) {
+            let _ = std::fs::remove_dir_all(args.out.join(name));
+        }
+    }
+    println!(
+        "worst worlds kept for a look (runs under {}, worlds under {}): {}",
+        args.out.display(),
+        args.out.join("worlds").display(),
+        keep.join(", ")
+    );
 }
 
 /// What a folder holds: a scenario to simulate or a dataset to replay.
@@ -266,7 +468,7 @@ fn print_relations(results: &[RunResult]) {
 
 fn print_table(results: &[RunResult]) {
     println!(
-        "{:<12} {:<9} {:<8} {:>7} {:>8} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>5} {:>5} {:>8} {:>6}",
+        "{:<12} {:<9} {:<8} {:>7} {:>8} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>5} {:>5} {:>5} {:>8} {:>6}",
         "scenario",
         "method",
         "sketch",
@@ -282,13 +484,14 @@ fn print_table(results: &[RunResult]) {
         "RTF",
         "rec.",
         "loops",
+        "rej.",
         "drw med",
         "drw≤1m"
     );
     let opt = |v: Option<f64>, prec: usize| v.map_or("-".to_string(), |v| format!("{v:.prec$}"));
     for r in results {
         println!(
-            "{:<12} {:<9} {:<8} {} {:>8} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5} {:>5} {:>8} {:>6}",
+            "{:<12} {:<9} {:<8} {} {:>8} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5} {:>5} {:>5} {:>8} {:>6}",
             r.scenario,
             r.method,
             r.sketch.as_deref().unwrap_or("-"),
@@ -304,6 +507,7 @@ fn print_table(results: &[RunResult]) {
             opt(r.realtime_factor, 1),
             r.recoveries,
             r.loop_closures,
+            r.loop_closures_rejected,
             opt(r.sketch_pose_median_m, 2),
             opt(r.sketch_pose_within_1m.map(|w| 100.0 * w), 0)
         );

@@ -1,0 +1,100 @@
+//! What a run maps with: an engine method, and for the methods that close loops, the option
+//! of leaving them open (`graph-open`: the same front end with no back end), so a table can
+//! show what closing loops adds — or costs.
+
+use sketchslam_engine::mapper::{MapperConfig, Method};
+use std::fmt;
+use std::str::FromStr;
+
+/// Suffix of a method name that leaves loops open.
+const OPEN_SUFFIX: &str = "-open";
+
+/// An engine method and whether its back end closes loops.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RunMethod {
+    /// The engine's method.
+    pub method: Method,
+    /// False: the mapper runs without loop closure (`MapperConfig::loop_closure = None`).
+    pub loop_closure: bool,
+}
+
+impl From<Method> for RunMethod {
+    fn from(method: Method) -> Self {
+        RunMethod {
+            method,
+            loop_closure: true,
+        }
+    }
+}
+
+impl RunMethod {
+    /// The mapper's settings for this run, seeded with `seed`.
+    pub fn config(&self, seed: u64) -> MapperConfig {
+        let defaults = MapperConfig::default();
+        MapperConfig {
+            seed,
+            loop_closure: defaults.loop_closure.filter(|_| self.loop_closure),
+            ..defaults
+        }
+    }
+}
+
+impl fmt::Display for RunMethod {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.loop_closure {
+            write!(f, "{}", self.method)
+        } else {
+            write!(f, "{}{OPEN_SUFFIX}", self.method)
+        }
+    }
+}
+
+impl FromStr for RunMethod {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let (name, loop_closure) = match s.strip_suffix(OPEN_SUFFIX) {
+            Some(name) => (name, false),
+            None => (s, true),
+        };
+        let method: Method = name.parse().map_err(|e| format!("{e}"))?;
+        if !loop_closure && !matches!(method, Method::Graph | Method::Sketch) {
+            return Err(format!(
+                "{s:?}: only graph and sketch close loops, so only they have an -open variant"
+            ));
+        }
+        Ok(RunMethod {
+            method,
+            loop_closure,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_open_needs_a_back_end() {
+        for name in [
+            "odometry",
+            "icp",
+            "graph",
+            "sketch",
+            "graph-open",
+            "sketch-open",
+        ] {
+            let m: RunMethod = name.parse().unwrap();
+            assert_eq!(m.to_string(), name);
+        }
+        let open: RunMethod = "graph-open".parse().unwrap();
+        assert!(open.config(3).loop_closure.is_none());
+        assert!(
+            RunMethod::from(Method::Graph)
+                .config(3)
+                .loop_closure
+                .is_some()
+        );
+        assert!("icp-open".parse::<RunMethod>().is_err());
+        assert!("nonsense".parse::<RunMethod>().is_err());
+    }
+}
