@@ -62,9 +62,9 @@ pub enum Kind {
 /// Which sensors the robot has.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum LidarGrade {
-    /// 20 Hz, 270°, 1081 beams, 30–50 m, good odometry (like `paper-env1`).
+    /// 20 or 40 Hz, 270°, 1081 beams, 30–50 m, good odometry (like `paper-env1`).
     Good,
-    /// 10 Hz, 360°, 180–360 beams, 8–12 m, worn odometry (like `school`).
+    /// 5–15 Hz, 180–360° in 0.5–1.5° steps, 5.6–12 m, worn odometry (like `school`).
     Cheap,
 }
 
