@@ -100,6 +100,30 @@ pub struct IcpResult {
     pub rms_m: f64,
     /// True when the step fell below the convergence thresholds.
     pub converged: bool,
+    /// `H = Σ_i w_i J_i J_iᵀ` at `pose` over the final correspondences (Huber weights
+    /// `w_i`, Jacobians of the module doc; the heading row and column are zero in
+    /// [`IcpMode::TranslationOnly`]), unit m⁻²·m² = 1: the number of points, weighted, that
+    /// pin each direction down. With independent residuals of standard deviation σ the
+    /// pose's covariance is `σ² H⁻¹`, so a direction along which `H` is small — a
+    /// corridor's axis — is one the scan does not measure ([`IcpResult::weakest_direction`]).
+    pub normal_matrix: nalgebra::Matrix3<f64>,
+}
+
+impl IcpResult {
+    /// The translation direction the match constrains least (unit vector, reference frame)
+    /// and `H`'s eigenvalue along it (weighted points; module doc of the field
+    /// [`IcpResult::normal_matrix`]). O(1).
+    pub fn weakest_direction(&self) -> (Point2, f64) {
+        let h = self.normal_matrix.fixed_view::<2, 2>(0, 0).into_owned();
+        let eig = h.symmetric_eigen();
+        let k = if eig.eigenvalues[0] <= eig.eigenvalues[1] {
+            0
+        } else {
+            1
+        };
+        let v = eig.eigenvectors.column(k);
+        (Point2::new(v[0], v[1]), eig.eigenvalues[k].max(0.0))
+    }
 }
 
 /// A reference point set prepared for alignment: k-d tree and normals, built once.
@@ -227,6 +251,7 @@ impl Icp {
             inliers: 0,
             rms_m: f64::NAN,
             converged: false,
+            normal_matrix: nalgebra::Matrix3::zeros(),
         };
         let Some(tree) = &self.tree else {
             return result;
@@ -280,6 +305,7 @@ impl Icp {
                 })
                 .sum();
             result.rms_m = (ss / pairs.len() as f64).sqrt();
+            result.normal_matrix = normal_equations(&pairs, (tx, ty, th), c.huber_m, mode).0;
         }
         result
     }
@@ -315,15 +341,15 @@ impl Icp {
     }
 }
 
-/// One damped Gauss-Newton step with Huber weights (IRLS) on the point-to-line residuals
-/// `r = n · (R(θ) p + t − q)` at the pose `(tx, ty, th)`; returns `(δx, δy, δθ)`
-/// (δθ = 0 in translation-only mode). `None` when the system cannot be solved.
-fn gauss_newton_step(
+/// The Huber-weighted (IRLS) normal equations `(H, g) = (Σ w J Jᵀ, Σ w r J)` of the
+/// point-to-line residuals `r = n · (R(θ) p + t − q)` at the pose `(tx, ty, th)`; the
+/// heading row and column are zero in translation-only mode. O(n).
+fn normal_equations(
     pairs: &[(Point2, Point2, Point2)],
     (tx, ty, th): (f64, f64, f64),
     huber_m: f64,
     mode: IcpMode,
-) -> Option<(f64, f64, f64)> {
+) -> (nalgebra::Matrix3<f64>, nalgebra::Vector3<f64>) {
     let (s, c) = th.sin_cos();
     let mut h = nalgebra::Matrix3::<f64>::zeros();
     let mut g = nalgebra::Vector3::<f64>::zeros();
@@ -341,6 +367,26 @@ fn gauss_newton_step(
         h += w * j * j.transpose();
         g += w * r * j;
     }
+    if mode == IcpMode::TranslationOnly {
+        for i in 0..3 {
+            h[(2, i)] = 0.0;
+            h[(i, 2)] = 0.0;
+        }
+        g[2] = 0.0;
+    }
+    (h, g)
+}
+
+/// One damped Gauss-Newton step on [`normal_equations`] at the pose `(tx, ty, th)`;
+/// returns `(δx, δy, δθ)` (δθ = 0 in translation-only mode). `None` when the system cannot
+/// be solved.
+fn gauss_newton_step(
+    pairs: &[(Point2, Point2, Point2)],
+    pose: (f64, f64, f64),
+    huber_m: f64,
+    mode: IcpMode,
+) -> Option<(f64, f64, f64)> {
+    let (h, g) = normal_equations(pairs, pose, huber_m, mode);
     // Small Levenberg damping keeps unobservable directions (a corridor's axis) near the
     // current estimate instead of making the system singular.
     let damping = 1e-6 * (h[(0, 0)] + h[(1, 1)]).max(1e-9);

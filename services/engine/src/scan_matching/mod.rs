@@ -3,7 +3,10 @@
 //! Used by the front end (point-to-line ICP, eq. 6, after the heading of eq. 5) and by the
 //! back end (correlative search of loop-closure candidates, refined by ICP):
 //! - [`icp`]: point-to-line ICP on a k-d tree, full or translation-only;
+//! - [`motion_prior`]: the odometry's prediction fused with an ICP match, so the directions
+//!   a scan does not measure (a corridor's axis) follow the odometry;
 //! - [`correlative`]: Olson's correlative scan matching with branch and bound.
 
 pub mod correlative;
 pub mod icp;
+pub mod motion_prior;

@@ -1,0 +1,127 @@
+//! Directions a scan does not measure keep the odometry's prediction: ICP decides the
+//! directions the scan constrains, the odometry the ones it does not (a corridor's axis).
+//!
+//! Sits after [`super::icp`] in the keyframe ICP of the `graph` and `sketch` front ends. In a
+//! featureless corridor the point-to-line normal matrix `H = Σ w J Jᵀ`
+//! ([`IcpResult::normal_matrix`]) is nearly singular along the axis: each unit normal adds
+//! `(n · d)²` to the information along a direction `d`, so the eigenvalue `λ` of `H`'s
+//! translation block along `d` counts the returns, weighted, whose walls face `d`. Along the
+//! axis only the noise of the reference normals contributes, and the converged pose slides
+//! there by centimetres per scan at random — over a corridor, a map shortened or stretched
+//! along it.
+//!
+//! The remedy follows Zhang, Kaess, Singh, "On degeneracy of optimization-based state
+//! estimation problems" (ICRA 2016), solution remapping: with `H_t = Σ λ_k v_k v_kᵀ`, every
+//! eigen-direction with `λ_k` below `min_points` is degenerate, and the pose's translation
+//! along it is replaced by the prediction's:
+//!
+//! `t = t_icp + Σ_{λ_k < min_points} v_k v_kᵀ (t_odo − t_icp)`
+//!
+//! The bound is a number of returns: fewer than about twenty returns facing a direction
+//! (a door frame's edge is a few; a corridor's end wall at 20 m, a quarter-degree scanner,
+//! some thirty) do not measure it against the normals' noise. It needs reference normals
+//! from evenly spaced points ([`crate::mapper::IcpReference::Submap`] thins them): from a raw
+//! scan's dense near returns the normals' noise alone can add tens. Cost: O(1).
+
+use super::icp::IcpResult;
+use nalgebra::Vector2;
+use sketchslam_types::Pose2;
+
+/// The default bound: a direction faced by fewer returns than this is not measured.
+pub const DEFAULT_MIN_POINTS: f64 = 20.0;
+
+/// What [`hold_unmeasured_directions`] did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Held {
+    /// The pose: ICP's, with the degenerate directions' translation from the prediction.
+    pub pose: Pose2,
+    /// Directions held (0, 1 or 2).
+    pub directions: usize,
+}
+
+/// The module doc's remapping of `result`'s translation towards `predicted` along the
+/// eigen-directions of `H` with fewer than `min_points` returns; the heading stays ICP's.
+/// A non-finite prediction leaves ICP's pose.
+pub fn hold_unmeasured_directions(result: &IcpResult, predicted: &Pose2, min_points: f64) -> Held {
+    let icp = result.pose;
+    if !predicted.is_finite() {
+        return Held {
+            pose: icp,
+            directions: 0,
+        };
+    }
+    let h = result.normal_matrix.fixed_view::<2, 2>(0, 0).into_owned();
+    let eig = h.symmetric_eigen();
+    let d = Vector2::new(predicted.x - icp.x, predicted.y - icp.y);
+    let mut shift = Vector2::zeros();
+    let mut directions = 0;
+    for k in 0..2 {
+        if eig.eigenvalues[k] < min_points {
+            let v = eig.eigenvectors.column(k).into_owned();
+            shift += v * v.dot(&d);
+            directions += 1;
+        }
+    }
+    Held {
+        pose: Pose2::new(icp.x + shift.x, icp.y + shift.y, icp.heading_rad),
+        directions,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Matrix3;
+
+    fn result(normal_matrix: Matrix3<f64>) -> IcpResult {
+        IcpResult {
+            pose: Pose2::new(10.0, 2.0, 0.1),
+            iterations: 5,
+            inliers: 100,
+            rms_m: 0.02,
+            converged: true,
+            normal_matrix,
+        }
+    }
+
+    #[test]
+    fn a_corridor_keeps_the_prediction_along_its_axis_and_icp_across() {
+        // A corridor along x: 500 returns face y, 3 face x.
+        let r = result(Matrix3::from_diagonal(&nalgebra::Vector3::new(
+            3.0, 500.0, 100.0,
+        )));
+        let held = hold_unmeasured_directions(&r, &Pose2::new(10.3, 2.3, 0.0), 20.0);
+        assert_eq!(held.directions, 1);
+        assert!((held.pose.x - 10.3).abs() < 1e-12 && (held.pose.y - 2.0).abs() < 1e-12);
+        assert_eq!(held.pose.heading_rad, 0.1);
+    }
+
+    #[test]
+    fn a_turned_corridor_is_held_along_its_own_axis() {
+        // The axis at 30°: H = 500 n nᵀ with n the axis' normal (−sin 30°, cos 30°).
+        let (s, c) = 30f64.to_radians().sin_cos();
+        let mut h = Matrix3::zeros();
+        h[(0, 0)] = 500.0 * s * s;
+        h[(0, 1)] = -500.0 * s * c;
+        h[(1, 0)] = -500.0 * s * c;
+        h[(1, 1)] = 500.0 * c * c;
+        let r = result(h);
+        // The prediction is 1 m ahead along the axis and 0.2 m to its side: only the
+        // first is taken.
+        let predicted = Pose2::new(10.0 + c - 0.2 * s, 2.0 + s + 0.2 * c, 0.0);
+        let held = hold_unmeasured_directions(&r, &predicted, 20.0);
+        assert!((held.pose.x - (10.0 + c)).abs() < 1e-9, "{held:?}");
+        assert!((held.pose.y - (2.0 + s)).abs() < 1e-9, "{held:?}");
+    }
+
+    #[test]
+    fn a_room_and_a_bad_prediction_keep_icp() {
+        let r = result(Matrix3::from_diagonal(&nalgebra::Vector3::new(
+            300.0, 500.0, 100.0,
+        )));
+        let held = hold_unmeasured_directions(&r, &Pose2::new(10.3, 2.3, 0.0), 20.0);
+        assert_eq!((held.pose, held.directions), (r.pose, 0));
+        let nan = Pose2::new(f64::NAN, 0.0, 0.0);
+        assert_eq!(hold_unmeasured_directions(&r, &nan, 20.0).pose, r.pose);
+    }
+}
