@@ -25,6 +25,10 @@ pub enum IcpReference {
     PreviousScan,
     /// Occupied cells of the map built so far (plus the previous scan).
     Map,
+    /// A submap: the scans of the last few meters of route, each where the front end put
+    /// it, thinned to a uniform density. A doorway's few points in one scan do not decide
+    /// a pose, and the reference normals come from evenly spaced points.
+    Submap,
 }
 
 /// Settings of a mapper; the defaults are the ones the evaluation reports.
@@ -38,6 +42,17 @@ pub struct MapperConfig {
     pub icp: IcpConfig,
     /// Reference of the keyframe ICP of the `sketch` and `graph` methods.
     pub keyframe_icp_reference: IcpReference,
+    /// Keyframe ICP: a translation direction faced by fewer returns than this (weighted,
+    /// [`crate::scan_matching::icp::IcpResult::normal_matrix`]) is not measured by the scan,
+    /// and the odometry's prediction stands along it (a corridor's axis;
+    /// [`crate::scan_matching::motion_prior`]); `None` takes ICP's pose as it converged.
+    ///
+    /// Off by default, measured: on 15 generated cheap-LiDAR worlds holding at
+    /// [`crate::scan_matching::motion_prior::DEFAULT_MIN_POINTS`] against the submap took
+    /// the median map error from 0.025 to 0.053 m (worst 0.073 to 0.170 m): along a hall's
+    /// one visible wall the odometry's scale bias (2–3.5 %) becomes the map's, which no
+    /// loop closure can see, while the submap's slide is already small.
+    pub icp_min_constraining_points: Option<f64>,
     /// Share of the eq. (5) heading correction applied per scan, 0..1. 1 is the paper:
     /// the heading is replaced and ICP solves the translation only. Below 1 ICP solves
     /// the full pose against the map and the sketch's line directions pull its heading by
@@ -62,7 +77,8 @@ impl Default for MapperConfig {
             grid: GridConfig::default(),
             mcl: MclConfig::default(),
             icp: IcpConfig::default(),
-            keyframe_icp_reference: IcpReference::PreviousScan,
+            keyframe_icp_reference: IcpReference::Submap,
+            icp_min_constraining_points: None,
             sketch_heading_gain: 0.05,
             sketch_heading_deadband_rad: 4f64.to_radians(),
             loop_closure: Some(LoopClosureConfig::default()),

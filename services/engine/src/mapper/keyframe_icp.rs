@@ -1,6 +1,16 @@
 //! Keyframe ICP: the position (and, below the paper's hard eq. (5), the heading) of a scan by
-//! point-to-line ICP against a reference that is held for a few scans — the previous scan
-//! when it was built, or the map around the robot (`MapperConfig::keyframe_icp_reference`).
+//! point-to-line ICP against a reference that is held for a few scans — by default a
+//! submap (the scans of the last [`SUBMAP_LENGTH_M`] of route, each where the front end put
+//! it, thinned to one point per [`SUBMAP_VOXEL_M`] square), or the previous scan when it was
+//! built, or the map around the robot (`MapperConfig::keyframe_icp_reference`). Optionally
+//! the directions the scan does not measure keep the odometry's prediction
+//! ([`crate::scan_matching::motion_prior`], `MapperConfig::icp_min_constraining_points`).
+//!
+//! Why a submap: one scan's points are dense near the robot and sparse far away, so the
+//! reference normals of a raw scan come from a few close walls and a doorway's handful of
+//! returns can decide a pose; several scans thinned to a uniform density give evenly spread,
+//! well estimated normals. Measured on 30 generated worlds (cheap-LiDAR half): median map
+//! error 0.044 → 0.025 m, worst 0.171 → 0.073 m against the previous-scan reference.
 //!
 //! Step 4 of the `sketch` front end (eq. 6) and the whole front end of the `graph` method,
 //! which is the same engine without the drawing. The reference is rebuilt every
@@ -10,11 +20,19 @@
 use super::config::{IcpReference, MapperConfig};
 use super::front_end_io::FrontEndInput;
 use crate::mapping::grid::OccupancyGrid;
+use crate::scan_matching::correlative::voxel_filter;
 use crate::scan_matching::icp::{Icp, IcpConfig, IcpMode};
+use crate::scan_matching::motion_prior::hold_unmeasured_directions;
 use sketchslam_types::{Point2, Pose2};
+use std::collections::VecDeque;
 
 /// Map points farther than this from the robot are left out of the ICP reference, meters.
 const ICP_REFERENCE_RADIUS_M: f64 = 50.0;
+
+/// [`IcpReference::Submap`] holds the scans of this much route, meters.
+pub const SUBMAP_LENGTH_M: f64 = 5.0;
+/// ...thinned to one point per square of this side, meters.
+pub const SUBMAP_VOXEL_M: f64 = 0.05;
 
 /// The ICP reference is rebuilt after this many scans...
 pub const REFERENCE_REFRESH_SCANS: usize = 5;
@@ -24,6 +42,8 @@ pub const REFERENCE_REFRESH_M: f64 = 1.0;
 /// Point-to-line ICP against a held reference.
 pub(super) struct KeyframeIcp {
     icp: IcpConfig,
+    /// Directions faced by fewer returns than this keep the guess.
+    min_constraining_points: Option<f64>,
     reference_kind: IcpReference,
     /// The ICP reference, the pose it was built around and the map revision it was
     /// built at.
@@ -31,6 +51,13 @@ pub(super) struct KeyframeIcp {
     scans_since_reference: usize,
     /// The previous scan's points, robot frame (placed at the input's `last_pose`).
     previous_points: Vec<Point2>,
+    /// [`IcpReference::Submap`]: the scans the submap is made of, map frame, with the
+    /// route length at each, newest last.
+    submap: VecDeque<(f64, Vec<Point2>)>,
+    /// Route length so far, meters (from the guesses of successive scans).
+    route_m: f64,
+    /// The previous scan's guess.
+    last_guess: Option<Pose2>,
 }
 
 impl KeyframeIcp {
@@ -38,10 +65,14 @@ impl KeyframeIcp {
     pub(super) fn new(config: &MapperConfig) -> Self {
         Self {
             icp: config.icp,
+            min_constraining_points: config.icp_min_constraining_points,
             reference_kind: config.keyframe_icp_reference,
             reference: None,
             scans_since_reference: 0,
             previous_points: Vec::new(),
+            submap: VecDeque::new(),
+            route_m: 0.0,
+            last_guess: None,
         }
     }
 
@@ -57,9 +88,35 @@ impl KeyframeIcp {
         self.scans_since_reference += 1;
     }
 
+    /// The submap's points once `previous` (map frame, the scan before the one aligned now)
+    /// joined it: scans older than [`SUBMAP_LENGTH_M`] of route leave, and when the back end
+    /// moved the map (`moved`) the older scans, placed before the correction, leave too.
+    fn submap_with(&mut self, previous: Vec<Point2>, moved: bool) -> Vec<Point2> {
+        if moved {
+            self.submap.clear();
+        }
+        self.submap.push_back((self.route_m, previous));
+        while self
+            .submap
+            .front()
+            .is_some_and(|(m, _)| self.route_m - m > SUBMAP_LENGTH_M)
+        {
+            self.submap.pop_front();
+        }
+        let all: Vec<Point2> = self
+            .submap
+            .iter()
+            .flat_map(|(_, p)| p.iter().copied())
+            .collect();
+        voxel_filter(&all, SUBMAP_VOXEL_M)
+    }
+
     /// Point-to-line ICP of the scan against the reference (map frame), from `guess`;
     /// the guess itself when there is too little to align with or ICP does not converge.
     pub(super) fn align(&mut self, input: &FrontEndInput, guess: Pose2, mode: IcpMode) -> Pose2 {
+        if let Some(last) = self.last_guess.replace(guess) {
+            self.route_m += last.position().distance(&guess.position());
+        }
         let points = &input.frame.points[..];
         if points.len() < 10 {
             return guess;
@@ -78,8 +135,13 @@ impl KeyframeIcp {
                 .map(|p| input.last_pose.transform_point(p))
                 .collect();
             let grid: &OccupancyGrid = input.grid;
+            let moved = self
+                .reference
+                .as_ref()
+                .is_some_and(|(_, _, revision)| *revision != input.map_revision);
             let points = match self.reference_kind {
                 IcpReference::PreviousScan => previous,
+                IcpReference::Submap => self.submap_with(previous, moved),
                 IcpReference::Map => {
                     let mut pts = grid.occupied_points_near(centre, ICP_REFERENCE_RADIUS_M);
                     // The grid holds the last scans only once their cells pass the
@@ -98,10 +160,40 @@ impl KeyframeIcp {
             return guess;
         }
         let result = icp.align(points, guess, mode);
-        if result.converged && result.pose.is_finite() {
-            result.pose
-        } else {
-            guess
+        if !(result.converged && result.pose.is_finite()) {
+            return guess;
         }
+        match self.min_constraining_points {
+            Some(min_points) => hold_unmeasured_directions(&result, &guess, min_points).pose,
+            None => result.pose,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A scan of `n` points along x, 1 cm apart, shifted by `dy`.
+    fn line(n: usize, dy: f64) -> Vec<Point2> {
+        (0..n).map(|i| Point2::new(i as f64 * 0.01, dy)).collect()
+    }
+
+    #[test]
+    fn the_submap_keeps_the_last_meters_of_route_thinned_and_forgets_a_moved_map() {
+        let mut icp = KeyframeIcp::new(&MapperConfig::default());
+        // Three scans 2 m of route apart: all within SUBMAP_LENGTH_M of the newest.
+        for k in 0..3 {
+            icp.route_m = 2.0 * k as f64;
+            let points = icp.submap_with(line(100, k as f64), false);
+            // 1 m of points 1 cm apart thinned to 5 cm squares: 20 per scan.
+            assert_eq!(points.len(), 20 * (k + 1), "after scan {k}");
+        }
+        // 6 m: the scan at 0 m is more than 5 m behind and leaves.
+        icp.route_m = 6.0;
+        assert_eq!(icp.submap_with(line(100, 3.0), false).len(), 60);
+        // A loop closure moved the map: the older scans were placed before it and leave.
+        icp.route_m = 6.5;
+        assert_eq!(icp.submap_with(line(100, 4.0), true).len(), 20);
     }
 }

@@ -10,7 +10,8 @@
 //!    a drawing's walls have the right directions even where its proportions are wrong, so
 //!    the heading cannot drift;
 //! 4. point-to-line ICP with that heading held corrects the position (eq. 6), against the
-//!    map built so far or the previous scan (`MapperConfig::keyframe_icp_reference`).
+//!    submap of the last meters, the map built so far or the previous scan
+//!    (`MapperConfig::keyframe_icp_reference`).
 //!
 //! It returns the pose, MCL's report and the scan lines it extracted; it never calls the
 //! back end. When the back end has moved the map (`FrontEndInput::map_revision`), the ICP
