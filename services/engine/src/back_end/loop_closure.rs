@@ -106,9 +106,13 @@ pub struct LoopClosureConfig {
     /// rejected. Default 20 (10 m of route at the default keyframe spacing).
     pub pending_keyframes: usize,
     /// After an optimization, a loop edge whose squared Mahalanobis error is above this
-    /// disagrees with the rest of the graph and is taken out again. Default 16.27, the
-    /// 99.9 % χ² quantile of 3 degrees of freedom.
-    pub residual_chi2: f64,
+    /// disagrees with the rest of the graph and is taken out again (16.27 is the 99.9 % χ²
+    /// quantile of 3 degrees of freedom). Default `None`, measured 2026-12-02: at 16.27 it
+    /// took the Intel log's relations from 0.086 to 0.325 m (the sequential edges' a priori
+    /// noise is tighter than a real front end's drift, so right loops over a long chain
+    /// leave), while on 16 generated worlds it changed one map, by 2 cm. It stays for
+    /// graphs whose noise model is trusted.
+    pub residual_chi2: Option<f64>,
 }
 
 impl Default for LoopClosureConfig {
@@ -145,7 +149,7 @@ impl Default for LoopClosureConfig {
             consistency_chi2: 11.34,
             min_consistent_loops: 3,
             pending_keyframes: 20,
-            residual_chi2: 16.27,
+            residual_chi2: None,
         }
     }
 }
@@ -436,6 +440,9 @@ impl LoopCloser {
     /// graph optimized again (a few rounds at most: each removal changes the others).
     fn drop_disagreeing_loops(&mut self) {
         const ROUNDS: usize = 3;
+        let Some(bound) = self.config.residual_chi2 else {
+            return;
+        };
         for _ in 0..ROUNDS {
             let nodes = self.graph.nodes();
             let worst = self
@@ -452,7 +459,7 @@ impl LoopCloser {
                     (d2, i)
                 })
                 .max_by(|a, b| a.0.total_cmp(&b.0));
-            let Some((_, i)) = worst.filter(|(d2, _)| *d2 > self.config.residual_chi2) else {
+            let Some((_, i)) = worst.filter(|(d2, _)| *d2 > bound) else {
                 return;
             };
             let l = self.loops.remove(i);
@@ -826,6 +833,7 @@ mod tests {
     #[test]
     fn a_loop_the_optimized_graph_disagrees_with_is_taken_out_again() {
         let mut lc = out_and_back();
+        lc.config.residual_chi2 = Some(16.27);
         for (from, to) in [(19, 60), (17, 62), (15, 64)] {
             lc.verify(offered(&lc, from, to, 0.0), to);
         }
