@@ -376,7 +376,9 @@ impl LoopCloser {
         let nodes = self.graph.nodes();
         let noise = self.step_noise();
         let h = &found.hypothesis;
-        if !(prior_distance_sq(nodes, h, self.drift_since(h)) <= c.consistency_chi2) {
+        // A NaN distance (a singular covariance) is refused too.
+        let d2 = prior_distance_sq(nodes, h, self.drift_since(h));
+        if d2.is_nan() || d2 > c.consistency_chi2 {
             self.rejected += 1;
             return false;
         }
