@@ -7,11 +7,8 @@ use sketchslam_engine::mapping::grid::{GridConfig, OccupancyGrid};
 use sketchslam_engine::scan_matching::icp::{Icp, IcpConfig, IcpMode};
 use sketchslam_types::{Point2, Pose2, Scan};
 
-type Seg = (Point2, Point2);
-
-fn seg(ax: f64, ay: f64, bx: f64, by: f64) -> Seg {
-    (Point2::new(ax, ay), Point2::new(bx, by))
-}
+mod common;
+use common::{Seg, cast, seg};
 
 /// A room with a box, a slanted wall and a pillar: no degenerate direction.
 fn world() -> Vec<Seg> {
@@ -28,25 +25,6 @@ fn world() -> Vec<Seg> {
         seg(-2.0, 2.5, -1.7, 2.5),
         seg(-1.7, 2.5, -1.7, 2.8),
     ]
-}
-
-fn cast(walls: &[Seg], o: Point2, a: f64) -> f64 {
-    let (dy, dx) = a.sin_cos();
-    let mut best = f64::INFINITY;
-    for (p, q) in walls {
-        let (ex, ey) = (q.x - p.x, q.y - p.y);
-        let den = dx * ey - dy * ex;
-        if den.abs() < 1e-12 {
-            continue;
-        }
-        let (wx, wy) = (p.x - o.x, p.y - o.y);
-        let t = (wx * ey - wy * ex) / den;
-        let s = (wx * dy - wy * dx) / den;
-        if t > 1e-9 && (0.0..=1.0).contains(&s) {
-            best = best.min(t);
-        }
-    }
-    best
 }
 
 fn simulate(pose: &Pose2, noise_m: f64, rng: &mut ChaCha8Rng) -> Scan {

@@ -12,30 +12,8 @@ use sketchslam_engine::scan_matching::motion_prior::{
 };
 use sketchslam_types::{Point2, Pose2, Scan};
 
-type Seg = (Point2, Point2);
-
-fn seg(ax: f64, ay: f64, bx: f64, by: f64) -> Seg {
-    (Point2::new(ax, ay), Point2::new(bx, by))
-}
-
-fn cast(walls: &[Seg], o: Point2, a: f64) -> f64 {
-    let (dy, dx) = a.sin_cos();
-    let mut best = f64::INFINITY;
-    for (p, q) in walls {
-        let (ex, ey) = (q.x - p.x, q.y - p.y);
-        let den = dx * ey - dy * ex;
-        if den.abs() < 1e-12 {
-            continue;
-        }
-        let (wx, wy) = (p.x - o.x, p.y - o.y);
-        let t = (wx * ey - wy * ex) / den;
-        let s = (wx * dy - wy * dx) / den;
-        if t > 1e-9 && (0.0..=1.0).contains(&s) {
-            best = best.min(t);
-        }
-    }
-    best
-}
+mod common;
+use common::{Seg, cast, seg};
 
 /// A 270°, 1 081-beam scan with a range cap, robot frame points.
 fn scan_points(walls: &[Seg], pose: &Pose2, max_range_m: f64, rng: &mut ChaCha8Rng) -> Vec<Point2> {
