@@ -2,13 +2,12 @@
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
 use sketchslam_engine::mapping::grid::{GridConfig, OccupancyGrid};
 use sketchslam_engine::scan_matching::icp::{Icp, IcpConfig, IcpMode};
 use sketchslam_types::{Point2, Pose2, Scan};
 
 mod common;
-use common::{Seg, cast, seg};
+use common::{Seg, scan_270, seg};
 
 /// A room with a box, a slanted wall and a pillar: no degenerate direction.
 fn world() -> Vec<Seg> {
@@ -28,26 +27,7 @@ fn world() -> Vec<Seg> {
 }
 
 fn simulate(pose: &Pose2, noise_m: f64, rng: &mut ChaCha8Rng) -> Scan {
-    let walls = world();
-    let beams = 1081;
-    let fov = 270f64.to_radians();
-    let inc = fov / (beams - 1) as f64;
-    let noise = Normal::new(0.0, noise_m.max(1e-12)).unwrap();
-    let ranges_m = (0..beams)
-        .map(|i| {
-            let r = cast(
-                &walls,
-                pose.position(),
-                pose.heading_rad - fov / 2.0 + i as f64 * inc,
-            );
-            if r.is_finite() && r < 30.0 {
-                (r + noise.sample(rng)) as f32
-            } else {
-                f32::INFINITY
-            }
-        })
-        .collect();
-    Scan::centred(fov, 0.05, 30.0, ranges_m)
+    scan_270(&world(), pose, noise_m, 30.0, rng)
 }
 
 fn points(scan: &Scan) -> Vec<Point2> {

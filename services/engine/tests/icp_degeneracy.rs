@@ -4,38 +4,19 @@
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
 use sketchslam_engine::scan_matching::correlative::voxel_filter;
 use sketchslam_engine::scan_matching::icp::{Icp, IcpConfig, IcpMode, IcpResult};
 use sketchslam_engine::scan_matching::motion_prior::{
     DEFAULT_MIN_POINTS, Held, hold_unmeasured_directions,
 };
-use sketchslam_types::{Point2, Pose2, Scan};
+use sketchslam_types::{Point2, Pose2};
 
 mod common;
-use common::{Seg, cast, seg};
+use common::{Seg, scan_270, seg};
 
-/// A 270°, 1 081-beam scan with a range cap, robot frame points.
+/// A 270°, 1 081-beam scan with 2 cm noise and a range cap, robot frame points.
 fn scan_points(walls: &[Seg], pose: &Pose2, max_range_m: f64, rng: &mut ChaCha8Rng) -> Vec<Point2> {
-    let beams = 1081;
-    let fov = 270f64.to_radians();
-    let inc = fov / (beams - 1) as f64;
-    let noise = Normal::new(0.0, 0.02).unwrap();
-    let ranges_m = (0..beams)
-        .map(|i| {
-            let r = cast(
-                walls,
-                pose.position(),
-                pose.heading_rad - fov / 2.0 + i as f64 * inc,
-            );
-            if r < max_range_m {
-                (r + noise.sample(rng)) as f32
-            } else {
-                f32::INFINITY
-            }
-        })
-        .collect();
-    Scan::centred(fov, 0.05, max_range_m as f32, ranges_m)
+    scan_270(walls, pose, 0.02, max_range_m, rng)
         .points()
         .map(|(_, p)| p)
         .collect()

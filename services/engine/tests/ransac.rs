@@ -3,7 +3,6 @@
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
 use sketchslam_engine::lines::matching::{
     HeadingAggregate, MatchConfig, heading_correction, match_lines, sketch_line_in_robot_frame,
 };
@@ -14,28 +13,10 @@ use sketchslam_types::{Point2, Pose2, Scan};
 use std::f64::consts::PI;
 
 mod common;
-use common::{Seg, cast, seg};
+use common::{Seg, scan_270, seg};
 
 fn simulate(walls: &[Seg], pose: &Pose2, noise_m: f64, rng: &mut ChaCha8Rng) -> Scan {
-    let beams = 1081;
-    let fov = 270f64.to_radians();
-    let inc = fov / (beams - 1) as f64;
-    let noise = Normal::new(0.0, noise_m.max(1e-12)).unwrap();
-    let ranges_m = (0..beams)
-        .map(|i| {
-            let r = cast(
-                walls,
-                pose.position(),
-                pose.heading_rad - fov / 2.0 + i as f64 * inc,
-            );
-            if r.is_finite() && r < 30.0 {
-                (r + noise.sample(rng)) as f32
-            } else {
-                f32::INFINITY
-            }
-        })
-        .collect();
-    Scan::centred(fov, 0.05, 30.0, ranges_m)
+    scan_270(walls, pose, noise_m, 30.0, rng)
 }
 
 /// Undirected angle of a world wall seen from `pose`, in [0, π).

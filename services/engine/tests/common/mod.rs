@@ -1,9 +1,11 @@
 //! Helpers the engine's integration tests share: worlds of straight wall segments and the
-//! exact ray cast against them, from which the tests make hand-checkable scans.
+//! exact ray cast against them, and the noisy 270° scans the tests make from them.
 
 #![allow(dead_code)]
 
-use sketchslam_types::Point2;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use sketchslam_types::{Point2, Pose2, Scan};
 
 /// A wall from one point to another, meters.
 pub type Seg = (Point2, Point2);
@@ -33,4 +35,34 @@ pub fn cast(walls: &[Seg], o: Point2, a: f64) -> f64 {
         }
     }
     best
+}
+
+/// A 270°, 1 081-beam scan of `walls` from `pose`: each beam's exact range ([`cast`]) plus
+/// Gaussian noise of `noise_m`, no return beyond `max_range_m` (the scan's range cap).
+pub fn scan_270(
+    walls: &[Seg],
+    pose: &Pose2,
+    noise_m: f64,
+    max_range_m: f64,
+    rng: &mut ChaCha8Rng,
+) -> Scan {
+    let beams = 1081;
+    let fov = 270f64.to_radians();
+    let inc = fov / (beams - 1) as f64;
+    let noise = Normal::new(0.0, noise_m.max(1e-12)).unwrap();
+    let ranges_m = (0..beams)
+        .map(|i| {
+            let r = cast(
+                walls,
+                pose.position(),
+                pose.heading_rad - fov / 2.0 + i as f64 * inc,
+            );
+            if r.is_finite() && r < max_range_m {
+                (r + noise.sample(rng)) as f32
+            } else {
+                f32::INFINITY
+            }
+        })
+        .collect();
+    Scan::centred(fov, 0.05, max_range_m as f32, ranges_m)
 }
