@@ -121,11 +121,16 @@ impl KeyframeIcp {
         if points.len() < 10 {
             return guess;
         }
-        let stale = self.reference.as_ref().is_none_or(|(_, at, revision)| {
-            *revision != input.map_revision
-                || self.scans_since_reference >= REFERENCE_REFRESH_SCANS
-                || at.position().distance(&guess.position()) > REFERENCE_REFRESH_M
-        });
+        // The back end moved the map since the reference was built.
+        let moved = self
+            .reference
+            .as_ref()
+            .is_some_and(|(_, _, revision)| *revision != input.map_revision);
+        let stale = moved
+            || self.reference.as_ref().is_none_or(|(_, at, _)| {
+                self.scans_since_reference >= REFERENCE_REFRESH_SCANS
+                    || at.position().distance(&guess.position()) > REFERENCE_REFRESH_M
+            });
         if stale {
             let centre = guess.position();
             // The previous scan where the map holds it now.
@@ -135,10 +140,6 @@ impl KeyframeIcp {
                 .map(|p| input.last_pose.transform_point(p))
                 .collect();
             let grid: &OccupancyGrid = input.grid;
-            let moved = self
-                .reference
-                .as_ref()
-                .is_some_and(|(_, _, revision)| *revision != input.map_revision);
             let points = match self.reference_kind {
                 IcpReference::PreviousScan => previous,
                 IcpReference::Submap => self.submap_with(previous, moved),
