@@ -145,12 +145,7 @@ pub fn pose_at(estimate: &[StampedPose], t_s: f64) -> Option<Pose2> {
     }
     let before = estimate.get(i.checked_sub(1)?)?;
     let f = (t_s - before.t_s) / (after.t_s - before.t_s);
-    let dth = sketchslam_types::wrap_angle(after.pose.heading_rad - before.pose.heading_rad);
-    Some(Pose2::new(
-        before.pose.x + f * (after.pose.x - before.pose.x),
-        before.pose.y + f * (after.pose.y - before.pose.y),
-        before.pose.heading_rad + f * dth,
-    ))
+    Some(before.pose.lerp(&after.pose, f))
 }
 
 /// Pairs (estimated position, true position) matched by stamp.

@@ -135,6 +135,17 @@ impl Pose2 {
         Point2::new(c * dx + s * dy, -s * dx + c * dy)
     }
 
+    /// The pose a share `u` of the way from `self` to `other`: positions linearly, the
+    /// heading along the shorter turn (`u = 0` gives `self`, `u = 1` `other`).
+    pub fn lerp(&self, other: &Pose2, u: f64) -> Pose2 {
+        let turn = wrap_angle(other.heading_rad - self.heading_rad);
+        Pose2::new(
+            self.x + u * (other.x - self.x),
+            self.y + u * (other.y - self.y),
+            self.heading_rad + u * turn,
+        )
+    }
+
     /// True when every field is finite.
     pub fn is_finite(&self) -> bool {
         self.x.is_finite() && self.y.is_finite() && self.heading_rad.is_finite()
@@ -191,5 +202,17 @@ mod tests {
         let p = Point2::new(0.4, 5.0);
         let q = a.inverse_transform_point(&a.transform_point(&p));
         assert!(close(p.x, q.x) && close(p.y, q.y));
+    }
+
+    #[test]
+    fn lerp_takes_the_shorter_turn() {
+        // From 170° to −170° is 20° through 180°, not 340° back through 0°.
+        let a = Pose2::new(0.0, 0.0, 170f64.to_radians());
+        let b = Pose2::new(2.0, -4.0, (-170f64).to_radians());
+        let m = a.lerp(&b, 0.25);
+        assert!((m.x - 0.5).abs() < 1e-12 && (m.y + 1.0).abs() < 1e-12);
+        assert!((m.heading_rad - 175f64.to_radians()).abs() < 1e-12, "{m:?}");
+        assert_eq!(a.lerp(&b, 0.0), a);
+        assert!((a.lerp(&b, 1.0).heading_rad - b.heading_rad).abs() < 1e-12);
     }
 }
