@@ -497,6 +497,31 @@ mod tests {
         }
     }
 
+    #[test]
+    fn a_lag_of_one_odometry_line_is_told_from_the_scans_own_poses() {
+        // A robot driving along x, one line every 100 ns.
+        let odometry: Vec<(u64, Pose2)> = (0..6)
+            .map(|k| (k * 100, Pose2::new(k as f64 * 0.2, 0.0, 0.0)))
+            .collect();
+        let scans_at = |shift: usize| -> Vec<(u64, Pose2)> {
+            [1usize, 2, 3, 4]
+                .iter()
+                .map(|&k| (odometry[k].0, odometry[k + shift].1))
+                .collect()
+        };
+        assert!(odometry_lags_one_line(&odometry, &scans_at(1)));
+        assert!(!odometry_lags_one_line(&odometry, &scans_at(0)));
+        // Standing still, both readings fit every scan: nothing to tell.
+        let still: Vec<(u64, Pose2)> = (0..6).map(|k| (k * 100, Pose2::IDENTITY)).collect();
+        let scans: Vec<(u64, Pose2)> = (1..5).map(|k| (k * 100, Pose2::IDENTITY)).collect();
+        assert!(!odometry_lags_one_line(&still, &scans));
+        // Scans between lines say nothing either.
+        let between: Vec<(u64, Pose2)> = (1..5usize)
+            .map(|k| (k as u64 * 100 + 50, odometry[k + 1].1))
+            .collect();
+        assert!(!odometry_lags_one_line(&odometry, &between));
+    }
+
     /// The MIT CSAIL log of the shared data sets: GMapping's .gfs with raw wheel odometry,
     /// replayed as it is.
     #[test]
