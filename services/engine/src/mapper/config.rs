@@ -4,6 +4,7 @@ use crate::back_end::loop_closure::LoopClosureConfig;
 use crate::localization::mcl::MclConfig;
 use crate::mapping::grid::GridConfig;
 use crate::scan_matching::icp::IcpConfig;
+use crate::scan_matching::odometry_noise::OdometryNoise;
 use crate::sketch::{Sketch, SketchPose};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -53,6 +54,11 @@ pub struct MapperConfig {
     /// one visible wall the odometry's scale bias (2–3.5 %) becomes the map's, which no
     /// loop closure can see, while the submap's slide is already small.
     pub icp_min_constraining_points: Option<f64>,
+    /// Keyframe ICP: the odometry's error model; when its ±3σ around the guess exceeds
+    /// ICP's basin (scans a second and a meter apart) a correlative search finds the basin
+    /// first ([`crate::scan_matching::odometry_noise`]). `None` always starts ICP from the
+    /// odometry's guess.
+    pub odometry_noise: Option<OdometryNoise>,
     /// Share of the eq. (5) heading correction applied per scan, 0..1. 1 is the paper:
     /// the heading is replaced and ICP solves the translation only. Below 1 ICP solves
     /// the full pose against the map and the sketch's line directions pull its heading by
@@ -79,6 +85,7 @@ impl Default for MapperConfig {
             icp: IcpConfig::default(),
             keyframe_icp_reference: IcpReference::Submap,
             icp_min_constraining_points: None,
+            odometry_noise: Some(OdometryNoise::default()),
             sketch_heading_gain: 0.05,
             sketch_heading_deadband_rad: 4f64.to_radians(),
             loop_closure: Some(LoopClosureConfig::default()),

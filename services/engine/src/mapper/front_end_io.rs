@@ -4,6 +4,7 @@
 use super::frame::ScanFrame;
 use crate::lines::ransac::ScanLine;
 use crate::mapping::grid::OccupancyGrid;
+use crate::scan_matching::odometry_noise::OdometryPath;
 use crate::sketch::SketchPose;
 use sketchslam_types::Pose2;
 
@@ -14,6 +15,9 @@ pub struct FrontEndInput<'a> {
     pub frame: &'a ScanFrame<'a>,
     /// Odometry motion since the last scan, robot frame.
     pub increment: Pose2,
+    /// The path the odometry reported since the last scan (its readings' steps summed):
+    /// how far off `increment` can be.
+    pub path: OdometryPath,
     /// The last scan's map pose, as corrected by the back end if it moved the map since.
     pub last_pose: Pose2,
     /// `last_pose` carried forward by `increment`.

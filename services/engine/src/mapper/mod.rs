@@ -30,10 +30,14 @@
 //! Map frame (`docs/architecture.md`): meters, origin at the robot's start; with a sketch
 //! the axes are the drawing's (x along +u, y along −v), so the start heading is the one
 //! marked on the sketch. Between scans the pose is carried forward by the odometry
-//! increment, so the trajectory holds a pose at every odometry message, not only at scans.
+//! increment, so the trajectory holds a pose at every odometry message, not only at scans;
+//! once the next scan is placed, those poses are carried back from it too and blended by
+//! time, so a scan's correction spreads over the stretch before it (a log keeping one scan
+//! a second leaves a second of raw odometry between two corrected poses).
 //!
 //! Pure: no threads, clocks or I/O; its randomness comes from seeded ChaCha streams.
 
+mod between_scans;
 mod config;
 mod frame;
 mod front_end;
@@ -55,6 +59,7 @@ use crate::EngineError;
 use crate::back_end::heading_prior::WallHeadingPrior;
 use crate::back_end::loop_closure::LoopCloser;
 use crate::mapping::grid::OccupancyGrid;
+use crate::scan_matching::odometry_noise::OdometryPath;
 use crate::sketch::SketchPose;
 use front_end::FrontEnd;
 use keyframe_icp::KeyframeIcp;
@@ -107,6 +112,8 @@ pub struct Mapper {
     odom_now: Option<Pose2>,
     /// Odometry reading at the last corrected pose.
     odom_at_fix: Pose2,
+    /// The odometry's path since that reading.
+    path_since_fix: OdometryPath,
     /// Corrected map pose at the last scan.
     map_at_fix: Pose2,
     stamp_ns: u64,
@@ -117,6 +124,11 @@ pub struct Mapper {
     /// Per trajectory point: its keyframe and its pose relative to it (`None` before the
     /// first keyframe, or without loop closure).
     trajectory_anchors: Vec<Option<Anchor>>,
+    /// Per trajectory point: the odometry reading at it.
+    trajectory_odometry: Vec<Pose2>,
+    /// Indices of the trajectory points that are placed scans, increasing; the points
+    /// between two of them are blended from both ([`between_scans`]).
+    trajectory_scans: Vec<usize>,
     /// Every fused scan with its keyframe anchor, to rebuild the grid after a correction.
     scan_log: Vec<(Anchor, Scan)>,
     /// Corrections of the back end so far.
@@ -179,12 +191,15 @@ impl Mapper {
             odom_origin: None,
             odom_now: None,
             odom_at_fix: Pose2::IDENTITY,
+            path_since_fix: OdometryPath::default(),
             map_at_fix: start_pose,
             stamp_ns: 0,
             trajectory: Vec::new(),
             drawing_trajectory: Vec::new(),
             health: Health::default(),
             trajectory_anchors: Vec::new(),
+            trajectory_odometry: Vec::new(),
+            trajectory_scans: Vec::new(),
             scan_log: Vec::new(),
             map_revision: 0,
             grid_stale: false,
@@ -219,10 +234,12 @@ impl Mapper {
                 self.health.localization_score = 1.0;
             }
         }
-        self.odom_now = Some(pose);
+        if let Some(previous) = self.odom_now.replace(pose) {
+            self.path_since_fix = self.path_since_fix.then(&previous.between(&pose));
+        }
         self.stamp_ns = self.stamp_ns.max(odom.stamp_ns);
         let current = self.current_map_pose();
-        self.push_trajectory(odom.stamp_ns, current);
+        self.push_trajectory(odom.stamp_ns, current, pose, false);
         if let Some(at_scan) = self.front_end.sketch_pose() {
             // Between scans MCL does not move: its estimate at the last scan, carried by
             // the odometry since (with the drawing's scale at that pose).
@@ -253,6 +270,7 @@ impl Mapper {
         let input = FrontEndInput {
             frame: &frame,
             increment,
+            path: self.path_since_fix,
             last_pose: self.map_at_fix,
             predicted: self.map_at_fix.compose(&increment),
             map_revision: self.map_revision,
@@ -272,6 +290,7 @@ impl Mapper {
         let corrected = self.add_keyframe(&frame, &output);
         self.map_at_fix = corrected;
         self.odom_at_fix = odom_now;
+        self.path_since_fix = OdometryPath::default();
         self.stamp_ns = self.stamp_ns.max(scan.header.stamp_ns);
         if !self.grid_stale {
             // (A stale grid is rebuilt from the log, this scan included.)
@@ -281,7 +300,8 @@ impl Mapper {
             self.scan_log.push((anchor, scan.clone()));
         }
         self.health.scans_processed += 1;
-        self.push_trajectory(scan.header.stamp_ns, corrected);
+        self.push_trajectory(scan.header.stamp_ns, corrected, odom_now, true);
+        self.blend_between_scans(self.trajectory_scans.len().saturating_sub(2));
         if let Some(report) = output.sketch {
             self.push_drawing(
                 scan.header.stamp_ns,
@@ -341,9 +361,22 @@ impl Mapper {
                 point.pose = keyframes[a.keyframe].compose(&a.relative);
             }
         }
+        self.blend_between_scans(0);
         self.map_revision += 1;
         self.grid_stale = true;
         corrected
+    }
+
+    /// Blends every stretch between placed scans from `from_scan` on (an index into
+    /// `trajectory_scans`) with [`between_scans::blend_stretch`].
+    fn blend_between_scans(&mut self, from_scan: usize) {
+        for pair in self.trajectory_scans.windows(2).skip(from_scan) {
+            let (i0, i1) = (pair[0], pair[1]);
+            between_scans::blend_stretch(
+                &mut self.trajectory[i0..=i1],
+                &self.trajectory_odometry[i0..=i1],
+            );
+        }
     }
 
     /// `pose` relative to the newest keyframe, when there is a back end with keyframes.
@@ -364,14 +397,18 @@ impl Mapper {
         }
     }
 
-    fn push_trajectory(&mut self, stamp_ns: u64, pose: Pose2) {
+    /// Appends a pose with the odometry reading at it (`scan`: a placed scan's pose).
+    fn push_trajectory(&mut self, stamp_ns: u64, pose: Pose2, odometry: Pose2, scan: bool) {
         // One pose per stamp: a scan's correction replaces the odometry pose of its stamp.
         let anchor = self.anchor(&pose);
         if let Some(last) = self.trajectory.last_mut() {
             if last.stamp_ns == stamp_ns {
                 last.pose = pose;
-                if let Some(a) = self.trajectory_anchors.last_mut() {
-                    *a = anchor;
+                let i = self.trajectory.len() - 1;
+                self.trajectory_anchors[i] = anchor;
+                self.trajectory_odometry[i] = odometry;
+                if scan && self.trajectory_scans.last() != Some(&i) {
+                    self.trajectory_scans.push(i);
                 }
                 return;
             }
@@ -379,8 +416,12 @@ impl Mapper {
                 return;
             }
         }
+        if scan {
+            self.trajectory_scans.push(self.trajectory.len());
+        }
         self.trajectory.push(TrajectoryPoint { stamp_ns, pose });
         self.trajectory_anchors.push(anchor);
+        self.trajectory_odometry.push(odometry);
     }
 
     /// The current pose estimate.

@@ -5,8 +5,11 @@
 //! - [`icp`]: point-to-line ICP on a k-d tree, full or translation-only;
 //! - [`motion_prior`]: the odometry's prediction fused with an ICP match, so the directions
 //!   a scan does not measure (a corridor's axis) follow the odometry;
+//! - [`odometry_noise`]: how far the odometry's guess can be off, so whether ICP can start
+//!   from it;
 //! - [`correlative`]: Olson's correlative scan matching with branch and bound.
 
 pub mod correlative;
 pub mod icp;
 pub mod motion_prior;
+pub mod odometry_noise;
