@@ -159,6 +159,7 @@ pub fn score_dataset_artifacts(
         recoveries: 0,
         loop_closures: 0,
         loop_closures_rejected: 0,
+        loops_off_truth: None,
         scan_ms_mean: None,
         scan_ms_p99: None,
         realtime_factor: None,

@@ -4,6 +4,7 @@
 
 pub mod dataset_run;
 pub mod generated;
+pub mod loop_audit;
 pub mod metrics;
 pub mod overlay;
 pub mod processes;

@@ -74,6 +74,11 @@ pub struct RunResult {
     /// Matched loops the back end refused.
     #[serde(default)]
     pub loop_closures_rejected: u32,
+    /// In-process runs with a true trajectory: loops in the final graph whose measurement
+    /// is off the true relative pose by more than [`crate::loop_audit::OFF_M`] or
+    /// [`crate::loop_audit::OFF_DEG`] (each listed in `loops.csv`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub loops_off_truth: Option<u32>,
     /// Mean engine time per scan, milliseconds (in-process runs).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub scan_ms_mean: Option<f64>,
@@ -180,6 +185,7 @@ pub fn run_in_process(
     };
     let mut result = score_artifacts(out_dir, &truth)?;
     run.fill(&mut result, &scenario.name, run_method, sketch);
+    result.loops_off_truth = run.audit_loops(out_dir)?;
     if let Some(cfg) = sketch.filter(|_| method == Method::Sketch) {
         fill_sketch_pose_scores(
             &mut result,
@@ -256,6 +262,7 @@ pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
         recoveries: 0,
         loop_closures: 0,
         loop_closures_rejected: 0,
+        loops_off_truth: None,
         scan_ms_mean: None,
         scan_ms_p99: None,
         realtime_factor: None,

@@ -8,6 +8,7 @@
 //! dataset); [`RunFigures`] fills the figures every run reports, in-process or through the
 //! processes ([`crate::real_process`]).
 
+use crate::loop_audit;
 use crate::metrics::StampedPose;
 use crate::run::{ONLINE_TRAJECTORY_FILE, RunResult, sketch_prior};
 use crate::run_method::RunMethod;
@@ -144,6 +145,18 @@ pub fn mcl_poses(on_drawing: &SketchTrajectoryResponse) -> Vec<(f64, SketchPose)
 }
 
 impl InProcessRun {
+    /// With loop closure: writes `loops.csv` into `out_dir` (every loop of the final graph
+    /// against the truth, [`crate::loop_audit`]) and returns how many are off the truth;
+    /// `None` without loop closure. Only for runs whose truth is a real trajectory.
+    pub fn audit_loops(&self, out_dir: &Path) -> Result<Option<u32>> {
+        if self.mapper.method() != Method::Graph && self.mapper.method() != Method::Sketch {
+            return Ok(None);
+        }
+        let audited = loop_audit::audit(&self.mapper.closed_loops(), &self.truth);
+        std::fs::write(out_dir.join("loops.csv"), loop_audit::loops_csv(&audited))?;
+        Ok(Some(audited.iter().filter(|l| l.is_off()).count() as u32))
+    }
+
     /// The figures of the run (scans, engine seconds, recoveries, loop closures).
     pub fn figures(&self) -> RunFigures {
         let health = self.mapper.health();

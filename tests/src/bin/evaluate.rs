@@ -349,13 +349,16 @@ fn run_parallel(args: &Args, plan: &[PlannedRun], jobs: usize) -> Vec<RunResult>
                     match result {
                         Ok(r) => {
                             eprintln!(
-                                "[{n}/{}] {}/{name}: map error {:.3} m, ATE {:.3} m, {} loops ({} rejected)",
+                                "[{n}/{}] {}/{name}: map error {:.3} m, ATE {:.3} m, {} loops ({} rejected{})",
                                 plan.len(),
                                 run.0.name(),
                                 r.map_error_m,
                                 r.ate_rmse_m,
                                 r.loop_closures,
-                                r.loop_closures_rejected
+                                r.loop_closures_rejected,
+                                r.loops_off_truth.map_or(String::new(), |off| format!(
+                                    "; {off} in the graph off the truth, loops.csv"
+                                ))
                             );
                             if let Ok(mut slot) = slots[i].lock() {
                                 *slot = Some(r);

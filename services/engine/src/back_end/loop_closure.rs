@@ -245,6 +245,12 @@ impl LoopCloser {
         &self.closures
     }
 
+    /// The loop edges in the graph now, with the measurements they hold (a loop taken out
+    /// again after optimization is not among them).
+    pub fn loops(&self) -> &[LoopHypothesis] {
+        &self.loops
+    }
+
     /// Adds a keyframe at the front end's `pose` (map frame, consistent with the graph's
     /// current poses) with its scan `points` (robot frame) and, when the drawing gave one,
     /// a prior on its map heading; tries to close loops from it and optimizes the graph

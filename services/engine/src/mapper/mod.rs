@@ -52,7 +52,8 @@ pub use frame::ScanFrame;
 pub use front_end_io::{FrontEndInput, FrontEndOutput, SketchReport};
 pub use method::Method;
 pub use output::{
-    DrawingPoint, DrawingPoseSource, Health, PoseEstimate, TrajectoryPoint, trajectory_csv,
+    ClosedLoop, DrawingPoint, DrawingPoseSource, Health, PoseEstimate, TrajectoryPoint,
+    trajectory_csv,
 };
 
 use crate::EngineError;
@@ -74,6 +75,8 @@ const HEADING_PRIOR_SEED_OFFSET: u64 = 0x6865_6164;
 struct BackEnd {
     closer: LoopCloser,
     heading_prior: Option<WallHeadingPrior>,
+    /// The stamp of each keyframe's scan, by keyframe index.
+    keyframe_stamps_ns: Vec<u64>,
 }
 
 impl BackEnd {
@@ -93,6 +96,7 @@ impl BackEnd {
         Some(BackEnd {
             closer: LoopCloser::new(closure),
             heading_prior,
+            keyframe_stamps_ns: Vec::new(),
         })
     }
 }
@@ -349,6 +353,9 @@ impl Mapper {
         let outcome = back_end
             .closer
             .add_keyframe(pose, &frame.points, heading_prior);
+        if outcome.index == back_end.keyframe_stamps_ns.len() {
+            back_end.keyframe_stamps_ns.push(frame.scan.header.stamp_ns);
+        }
         self.health.loop_closures = back_end.closer.closures().len() as u32;
         self.health.loop_closures_rejected = back_end.closer.rejected() as u32;
         if !outcome.optimized {
@@ -431,6 +438,28 @@ impl Mapper {
             map: self.current_map_pose(),
             sketch: self.front_end.sketch_pose(),
         }
+    }
+
+    /// The loops in the pose graph now, by the stamps of the scans they join, with the
+    /// relative pose each holds (empty without loop closure). For audits: a simulated run
+    /// compares each with the truth.
+    pub fn closed_loops(&self) -> Vec<ClosedLoop> {
+        let Some(back_end) = &self.back_end else {
+            return Vec::new();
+        };
+        let stamps = &back_end.keyframe_stamps_ns;
+        back_end
+            .closer
+            .loops()
+            .iter()
+            .filter_map(|l| {
+                Some(ClosedLoop {
+                    from_stamp_ns: *stamps.get(l.from)?,
+                    to_stamp_ns: *stamps.get(l.to)?,
+                    measurement: l.measurement,
+                })
+            })
+            .collect()
     }
 
     /// The map pose of the robot at its start.

@@ -35,6 +35,17 @@ impl TrajectoryPoint {
     }
 }
 
+/// A loop of the pose graph, by the stamps of the two scans it joins.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ClosedLoop {
+    /// Stamp of the earlier keyframe's scan, nanoseconds.
+    pub from_stamp_ns: u64,
+    /// Stamp of the newer keyframe's scan, nanoseconds.
+    pub to_stamp_ns: u64,
+    /// The newer keyframe's pose in the earlier one's frame, as the match found it.
+    pub measurement: Pose2,
+}
+
 /// What gave a pose on the drawing.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
