@@ -68,9 +68,7 @@ pub(super) struct KeyframeIcp {
     /// The ICP reference, the pose it was built around and the map revision it was
     /// built at.
     reference: Option<(Icp, Pose2, u64)>,
-    /// The reference's points, map frame, and their likelihood field once a far guess
-    /// needed it.
-    reference_points: Vec<Point2>,
+    /// The likelihood field of the reference's points, once a far guess needed it.
     field: Option<LikelihoodField>,
     /// The odometry's error model: a guess it leaves outside ICP's basin is searched for.
     guess_noise: Option<OdometryNoise>,
@@ -94,7 +92,6 @@ impl KeyframeIcp {
             min_constraining_points: config.icp_min_constraining_points,
             reference_kind: config.keyframe_icp_reference,
             reference: None,
-            reference_points: Vec::new(),
             field: None,
             guess_noise: config.odometry_noise,
             scans_since_reference: 0,
@@ -188,20 +185,26 @@ impl KeyframeIcp {
                 }
             };
             self.reference = Some((Icp::new(&points, self.icp), guess, input.map_revision));
-            self.reference_points = points;
             self.field = None;
             self.scans_since_reference = 0;
         }
-        if self
-            .reference
-            .as_ref()
-            .is_none_or(|(icp, _, _)| icp.len() < 10)
-        {
-            return guess;
-        }
-        let guess = self.search_far_guess(points, guess, &input.path, mode);
         let Some((icp, _, _)) = &self.reference else {
             return guess;
+        };
+        if icp.len() < 10 {
+            return guess;
+        }
+        let guess = match self.guess_noise {
+            Some(noise) => search_far_guess(
+                &noise,
+                icp,
+                &mut self.field,
+                points,
+                guess,
+                &input.path,
+                mode,
+            ),
+            None => guess,
         };
         let result = icp.align(points, guess, mode);
         if !(result.converged && result.pose.is_finite()) {
@@ -214,42 +217,38 @@ impl KeyframeIcp {
     }
 }
 
-impl KeyframeIcp {
-    /// `guess` when the odometry's error over `path` stays inside ICP's basin;
-    /// otherwise the best pose of a correlative search over ±3σ of it (heading held in
-    /// [`IcpMode::TranslationOnly`]), from which ICP then descends.
-    fn search_far_guess(
-        &mut self,
-        points: &[Point2],
-        guess: Pose2,
-        path: &OdometryPath,
-        mode: IcpMode,
-    ) -> Pose2 {
-        let Some(noise) = self.guess_noise else {
-            return guess;
-        };
-        let sigma = noise.sigma(path);
-        let angular_rad = match mode {
-            IcpMode::Full => (3.0 * sigma.heading_rad).min(MAX_SEARCH_RAD),
-            IcpMode::TranslationOnly => 0.0,
-        };
-        let linear_m = (3.0 * sigma.position_m).min(MAX_SEARCH_M);
-        if angular_rad <= ICP_BASIN_RAD && linear_m <= 0.5 * self.icp.max_correspondence_m {
-            return guess;
-        }
-        let reference = &self.reference_points;
-        let field = self
-            .field
-            .get_or_insert_with(|| LikelihoodField::new(reference, CorrelativeConfig::default()));
-        let query = voxel_filter(points, 2.0 * field.config().resolution_m);
-        let window = SearchWindow {
-            linear_m,
-            angular_rad,
-        };
-        field
-            .search(&query, guess, &window)
-            .map_or(guess, |found| found.pose)
+/// `guess` when `noise` over `path` stays inside the basin of `icp` (the reference);
+/// otherwise the best pose of a correlative search over ±3σ of it (heading held in
+/// [`IcpMode::TranslationOnly`]) against the reference's likelihood field, built into
+/// `field` when first needed. ICP then descends from the pose returned.
+fn search_far_guess(
+    noise: &OdometryNoise,
+    icp: &Icp,
+    field: &mut Option<LikelihoodField>,
+    points: &[Point2],
+    guess: Pose2,
+    path: &OdometryPath,
+    mode: IcpMode,
+) -> Pose2 {
+    let sigma = noise.sigma(path);
+    let angular_rad = match mode {
+        IcpMode::Full => (3.0 * sigma.heading_rad).min(MAX_SEARCH_RAD),
+        IcpMode::TranslationOnly => 0.0,
+    };
+    let linear_m = (3.0 * sigma.position_m).min(MAX_SEARCH_M);
+    if angular_rad <= ICP_BASIN_RAD && linear_m <= 0.5 * icp.config().max_correspondence_m {
+        return guess;
     }
+    let field = field
+        .get_or_insert_with(|| LikelihoodField::new(icp.points(), CorrelativeConfig::default()));
+    let query = voxel_filter(points, 2.0 * field.config().resolution_m);
+    let window = SearchWindow {
+        linear_m,
+        angular_rad,
+    };
+    field
+        .search(&query, guess, &window)
+        .map_or(guess, |found| found.pose)
 }
 
 #[cfg(test)]

@@ -223,6 +223,11 @@ impl Icp {
         &self.config
     }
 
+    /// The reference points (the finite ones it was given), in their order.
+    pub fn points(&self) -> &[Point2] {
+        &self.points
+    }
+
     /// Number of reference points.
     pub fn len(&self) -> usize {
         self.points.len()
