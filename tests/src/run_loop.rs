@@ -147,12 +147,13 @@ pub fn mcl_poses(on_drawing: &SketchTrajectoryResponse) -> Vec<(f64, SketchPose)
 impl InProcessRun {
     /// With loop closure: writes `loops.csv` into `out_dir` (every loop of the final graph
     /// against the truth, [`crate::loop_audit`]) and returns how many are off the truth;
-    /// `None` without loop closure. Only for runs whose truth is a real trajectory.
+    /// `None` without loop closure (`graph-open` included). Only for runs whose truth is a
+    /// real trajectory.
     pub fn audit_loops(&self, out_dir: &Path) -> Result<Option<u32>> {
-        if self.mapper.method() != Method::Graph && self.mapper.method() != Method::Sketch {
+        let Some(closed) = self.mapper.closed_loops() else {
             return Ok(None);
-        }
-        let audited = loop_audit::audit(&self.mapper.closed_loops(), &self.truth);
+        };
+        let audited = loop_audit::audit(&closed, &self.truth);
         std::fs::write(out_dir.join("loops.csv"), loop_audit::loops_csv(&audited))?;
         Ok(Some(audited.iter().filter(|l| l.is_off()).count() as u32))
     }

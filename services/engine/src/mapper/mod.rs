@@ -441,14 +441,12 @@ impl Mapper {
     }
 
     /// The loops in the pose graph now, by the stamps of the scans they join, with the
-    /// relative pose each holds (empty without loop closure). For audits: a simulated run
+    /// relative pose each holds; `None` without loop closure. For audits: a simulated run
     /// compares each with the truth.
-    pub fn closed_loops(&self) -> Vec<ClosedLoop> {
-        let Some(back_end) = &self.back_end else {
-            return Vec::new();
-        };
+    pub fn closed_loops(&self) -> Option<Vec<ClosedLoop>> {
+        let back_end = self.back_end.as_ref()?;
         let stamps = &back_end.keyframe_stamps_ns;
-        back_end
+        let loops = back_end
             .closer
             .loops()
             .iter()
@@ -459,7 +457,8 @@ impl Mapper {
                     measurement: l.measurement,
                 })
             })
-            .collect()
+            .collect();
+        Some(loops)
     }
 
     /// The map pose of the robot at its start.
