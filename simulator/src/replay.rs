@@ -45,8 +45,9 @@
 //! exactly), and where a line is missing the motion shows one line late — across the CSAIL
 //! log's 1.07 s gaps its benchmark relations turn 50°, 69° and 25° while the `ODOM` line at
 //! the gap's end has turned 10°, 1° and 0°, and the line after it the rest. There each
-//! line's pose is published at the previous line's stamp (the last line is dropped), which
-//! makes the odometry agree with the scans' own poses; the note says so.
+//! line's pose is published at the previous line's stamp (the first line's pose and the
+//! last line's stamp are left over), which makes the odometry agree with the scans' own
+//! poses; the note says so.
 //!
 //! # Order
 //!
