@@ -15,7 +15,11 @@ use sketchslam_engine::scan_matching::icp::{Icp, IcpConfig, IcpMode};
 use sketchslam_types::{Point2, Pose2, Scan};
 use std::time::Instant;
 
-type Seg = (Point2, Point2);
+// The integration tests' segment worlds, exact ray cast and noisy 270° scans.
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use common::{Seg, scan_270};
 
 /// An office-like floor: a 30 m × 12 m outline, a corridor wall with doors, rooms, boxes.
 fn world() -> Vec<Seg> {
@@ -46,47 +50,6 @@ fn world() -> Vec<Seg> {
     }
     s(2.0, 1.0, 3.0, 2.5);
     w
-}
-
-fn cast(walls: &[Seg], o: Point2, a: f64) -> f64 {
-    let (dy, dx) = a.sin_cos();
-    let mut best = f64::INFINITY;
-    for (p, q) in walls {
-        let (ex, ey) = (q.x - p.x, q.y - p.y);
-        let den = dx * ey - dy * ex;
-        if den.abs() < 1e-12 {
-            continue;
-        }
-        let (wx, wy) = (p.x - o.x, p.y - o.y);
-        let t = (wx * ey - wy * ex) / den;
-        let s = (wx * dy - wy * dx) / den;
-        if t > 1e-9 && (0.0..=1.0).contains(&s) {
-            best = best.min(t);
-        }
-    }
-    best
-}
-
-fn simulate(walls: &[Seg], pose: &Pose2, rng: &mut ChaCha8Rng) -> Scan {
-    let beams = 1081;
-    let fov = 270f64.to_radians();
-    let inc = fov / (beams - 1) as f64;
-    let noise = Normal::new(0.0, 0.02).unwrap();
-    let ranges_m = (0..beams)
-        .map(|i| {
-            let r = cast(
-                walls,
-                pose.position(),
-                pose.heading_rad - fov / 2.0 + i as f64 * inc,
-            );
-            if r.is_finite() && r < 30.0 {
-                (r + noise.sample(rng)) as f32
-            } else {
-                f32::INFINITY
-            }
-        })
-        .collect();
-    Scan::centred(fov, 0.05, 30.0, ranges_m)
 }
 
 /// Mean and 95th percentile, microseconds.
@@ -122,7 +85,7 @@ fn main() {
     let data: Vec<(Scan, Vec<Point2>)> = poses
         .iter()
         .map(|p| {
-            let s = simulate(&walls, p, &mut rng);
+            let s = scan_270(&walls, p, 0.02, 30.0, &mut rng);
             let pts = s.points().map(|(_, q)| q).collect();
             (s, pts)
         })
