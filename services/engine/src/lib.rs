@@ -12,6 +12,7 @@
 //! - [`scan_matching`]: point-to-line ICP (eq. 6) and correlative scan matching;
 //! - [`mapping`]: the occupancy grid and its ROS `map_server` export;
 //! - [`back_end`]: keyframes, loop closure and the SE(2) pose graph;
+//! - [`registration`]: the warp from the map onto the drawing, fitted to the map's walls;
 //! - [`mapper`]: one session's pipeline, the front end per scan and the back end per
 //!   keyframe, and the `odometry` / `icp` baselines.
 //!
@@ -24,6 +25,7 @@ pub mod lines;
 pub mod localization;
 pub mod mapper;
 pub mod mapping;
+pub mod registration;
 pub mod scan_matching;
 pub mod sketch;
 

@@ -228,6 +228,12 @@ impl Icp {
         &self.points
     }
 
+    /// Unit normal of each reference point (same order as [`Icp::points`]), `None` where
+    /// its neighbourhood is not line-like. Unoriented: its sign is arbitrary.
+    pub fn normals(&self) -> &[Option<Point2>] {
+        &self.normals
+    }
+
     /// Number of reference points.
     pub fn len(&self) -> usize {
         self.points.len()

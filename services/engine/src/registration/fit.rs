@@ -1,0 +1,370 @@
+//! Fitting the warp W ([`super::warp`]) to the map's walls: the map's wall points carried
+//! through W should lie on the drawing's lines.
+//!
+//! Sits after the back end (the map's walls in map meters: keyframe scans at their
+//! optimized poses, or the grid's occupied cells) and before everything read on the
+//! drawing. Inputs: wall points `p_i` (map), the drawing's lines (pixels), and a prior
+//! similarity `S₀` (the user's start mark and scale guess) with its uncertainty.
+//!
+//! Minimises, over W's parameters `θ = (a, b, t, o)` (all linear in W),
+//!
+//! `E(θ) = Σ_i r_i² / σ_l² + |(a, b) − (a₀, b₀)|² / σ_ab² + |t − t₀|² / σ_t²
+//!        + Σ_(k,l) |o_k − o_l|² / σ_s² + Σ_k |o_k|² / σ_o²`
+//!
+//! - `r_i = n_i · (W(p_i) − f_i)`: the distance of the warped point from its nearest drawn
+//!   line (`f_i` the nearest point of the segment, `n_i` the unit direction from `f_i`, so
+//!   point-to-line inside the segment and point-to-point beyond its ends). A point farther
+//!   than the gate from every line is left out (truncated least squares): furniture, people
+//!   and walls nobody drew do not pull. The gate shrinks from `start_gate_m` (where the
+//!   prior may put a wall) to `gate_m` (how far a drawn wall may lie from its true place
+//!   once warped), as ICP's does. A point pairs only with lines of its own wall's direction
+//!   (within `direction_tolerance_rad`): a drawing's wall directions are right.
+//! - `σ_l`: a drawn wall's own error (pen, straightness) after the warp; `σ_s =
+//!   proportion_error · spacing`: neighbouring nodes' offsets differ by a person's error of
+//!   proportion over one cell, the regularizer of Mielle et al.'s (Robotics 2019) emergency
+//!   map deformation and of free-form registration generally; `σ_o = proportion_error ·
+//!   half the floor's extent`: how far a drawn point may lie from where the best similarity
+//!   puts it, so what a similarity explains (a turn, a scale) stays in the similarity.
+//!
+//! Gauss–Newton (the model is linear in θ; the nearest lines are found again each
+//! iteration): first the similarity alone (a few iterations, the offsets held at zero), then
+//! everything. All lengths in meters are turned into pixels at the prior's scale. Cost per
+//! iteration: O(n · L) to associate n points with L lines, O(n) to build, O(m³) to solve for
+//! m = 4 + 2 · nodes parameters (a 60 × 40 m floor at 4 m: 356).
+//!
+//! Pure: values in, values out.
+
+use super::warp::{ControlGrid, Similarity, Warp};
+use crate::scan_matching::icp::{Icp, IcpConfig};
+use crate::sketch::SketchLine;
+use nalgebra::{DMatrix, DVector};
+use sketchslam_types::Point2;
+use std::f64::consts::FRAC_PI_2;
+
+/// Settings of [`fit_warp`]; lengths in meters at the drawing's scale.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FitConfig {
+    /// Control nodes this far apart, meters.
+    pub spacing_m: f64,
+    /// A drawn wall's error after the warp (σ_l), meters.
+    pub line_sigma_m: f64,
+    /// Proportion error of the drawing over one cell (σ_s / spacing), 0..1.
+    pub proportion_error: f64,
+    /// Uncertainty of the prior's scale, as a share of it (the user's scale guess).
+    pub scale_error: f64,
+    /// Uncertainty of the prior's rotation, radians (the marked start heading).
+    pub rotation_error_rad: f64,
+    /// Uncertainty of the prior's translation, meters (the marked start).
+    pub translation_error_m: f64,
+    /// First association gate, meters.
+    pub start_gate_m: f64,
+    /// Last association gate, meters.
+    pub gate_m: f64,
+    /// A wall point pairs only with drawn lines within this angle of its own wall's
+    /// direction (carried through W), radians: a drawing's wall directions are right
+    /// within a few degrees, so a wall is never laid on a drawn wall across it.
+    pub direction_tolerance_rad: f64,
+    /// Iterations fitting the similarity alone.
+    pub similarity_iterations: usize,
+    /// Iterations fitting everything.
+    pub warp_iterations: usize,
+}
+
+impl Default for FitConfig {
+    fn default() -> Self {
+        Self {
+            spacing_m: 4.0,
+            line_sigma_m: 0.1,
+            proportion_error: 0.25,
+            scale_error: 0.3,
+            rotation_error_rad: 10f64.to_radians(),
+            translation_error_m: 2.0,
+            start_gate_m: 3.0,
+            gate_m: 1.0,
+            direction_tolerance_rad: 20f64.to_radians(),
+            similarity_iterations: 10,
+            warp_iterations: 15,
+        }
+    }
+}
+
+/// What [`fit_warp`] found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WarpFit {
+    /// The warp.
+    pub warp: Warp,
+    /// Points within the last gate of a drawn line.
+    pub inliers: usize,
+    /// RMS of their residuals, pixels.
+    pub rms_px: f64,
+    /// Per control node, the inliers' bilinear weight on it: how many wall points hold it
+    /// (0: nothing seen there, the node follows its neighbours).
+    pub support: Vec<f64>,
+}
+
+/// A drawn line as a segment in the drawing frame `(u, −v)`, with its unit normal.
+struct Segment {
+    a: Point2,
+    b: Point2,
+    normal: Point2,
+}
+
+/// A map wall point and its wall's unit normal (map frame).
+#[derive(Debug, Clone, Copy)]
+struct WallPoint {
+    p: Point2,
+    normal: Point2,
+}
+
+impl Segment {
+    /// The nearest point of the segment to `p`.
+    fn foot(&self, p: Point2) -> Point2 {
+        let (dx, dy) = (self.b.x - self.a.x, self.b.y - self.a.y);
+        let len2 = dx * dx + dy * dy;
+        let t = if len2 > 0.0 {
+            (((p.x - self.a.x) * dx + (p.y - self.a.y) * dy) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        Point2::new(self.a.x + t * dx, self.a.y + t * dy)
+    }
+}
+
+/// The module doc's fit of W to `points` (map meters, non-finite ones ignored) against
+/// `lines` (drawing pixels), from `prior`. `None` without points or lines, or when the
+/// prior's scale is not a positive number.
+pub fn fit_warp(
+    points: &[Point2],
+    lines: &[SketchLine],
+    prior: Similarity,
+    config: &FitConfig,
+) -> Option<WarpFit> {
+    let finite: Vec<Point2> = points
+        .iter()
+        .copied()
+        .filter(|p| p.x.is_finite() && p.y.is_finite())
+        .collect();
+    // The wall through each point (PCA over its neighbours, as ICP's reference normals);
+    // points on no line (clutter, corners) take no part.
+    let icp = Icp::new(&finite, IcpConfig::default());
+    let points: Vec<WallPoint> = icp
+        .points()
+        .iter()
+        .zip(icp.normals())
+        .filter_map(|(p, n)| n.map(|normal| WallPoint { p: *p, normal }))
+        .collect();
+    let s0 = prior.scale_px_per_m();
+    if points.is_empty() || lines.is_empty() || !(s0 > 0.0 && s0.is_finite()) {
+        return None;
+    }
+    let segments: Vec<Segment> = lines
+        .iter()
+        .filter_map(|l| {
+            let (a, b) = (Point2::new(l.a.x, -l.a.y), Point2::new(l.b.x, -l.b.y));
+            let len = a.distance(&b);
+            (len > 0.0).then(|| Segment {
+                a,
+                b,
+                normal: Point2::new(-(b.y - a.y) / len, (b.x - a.x) / len),
+            })
+        })
+        .collect();
+    if points.is_empty() || segments.is_empty() {
+        return None;
+    }
+    let (lo, hi) = points.iter().map(|w| w.p).fold(
+        (
+            Point2::new(f64::MAX, f64::MAX),
+            Point2::new(f64::MIN, f64::MIN),
+        ),
+        |(lo, hi), p| {
+            (
+                Point2::new(lo.x.min(p.x), lo.y.min(p.y)),
+                Point2::new(hi.x.max(p.x), hi.y.max(p.y)),
+            )
+        },
+    );
+    let grid = ControlGrid::covering(lo, hi, config.spacing_m);
+    let mut warp = Warp::rigid(prior, grid);
+    let px = |m: f64| m * s0;
+    let cos_tol = config.direction_tolerance_rad.clamp(0.0, FRAC_PI_2).cos();
+    // The similarity first, then everything, under one gate shrinking from the start gate:
+    // the offsets only move walls within a drawing's error of where the similarity put
+    // them (given the start gate again, they fold the map onto the nearest lines instead).
+    let mut gate_px = px(config.start_gate_m.max(config.gate_m));
+    for (full, iterations) in [
+        (false, config.similarity_iterations),
+        (true, config.warp_iterations),
+    ] {
+        for _ in 0..iterations {
+            let pairs = associate(&warp, &points, &segments, gate_px, cos_tol);
+            let Some(step) = solve_step(&warp, &pairs, &prior, config, full) else {
+                break;
+            };
+            apply_step(&mut warp, &step, full);
+            gate_px = (gate_px * 0.8).max(px(config.gate_m));
+        }
+    }
+    let pairs = associate(&warp, &points, &segments, gate_px, cos_tol);
+    let mut support = vec![0.0; grid.len()];
+    let mut sum_sq = 0.0;
+    for pair in &pairs {
+        sum_sq += pair.distance_px * pair.distance_px;
+        for (k, w) in grid.weights(pair.p) {
+            support[k] += w;
+        }
+    }
+    let last = (pairs.len(), (sum_sq / pairs.len().max(1) as f64).sqrt());
+    Some(WarpFit {
+        warp,
+        inliers: last.0,
+        rms_px: last.1,
+        support,
+    })
+}
+
+/// A wall point paired with the nearest drawn line of its direction.
+struct Pair {
+    /// The map point.
+    p: Point2,
+    /// Its distance from the line after the warp, pixels.
+    distance_px: f64,
+    /// The unit direction from the line's nearest point to the warped point.
+    n: Point2,
+}
+
+/// Each wall point whose warped position lies within `gate_px` of a drawn line of its own
+/// direction (the map normal turned by W's rotation against the line's normal, within
+/// `acos(cos_tol)`), paired with the nearest such line. O(n · L).
+fn associate(
+    warp: &Warp,
+    points: &[WallPoint],
+    segments: &[Segment],
+    gate_px: f64,
+    cos_tol: f64,
+) -> Vec<Pair> {
+    let (sin, cos) = warp.similarity.rotation_rad().sin_cos();
+    points
+        .iter()
+        .filter_map(|wp| {
+            let w = warp.apply(wp.p);
+            let nm = Point2::new(
+                cos * wp.normal.x - sin * wp.normal.y,
+                sin * wp.normal.x + cos * wp.normal.y,
+            );
+            let (d, f) = segments
+                .iter()
+                .filter(|s| (s.normal.x * nm.x + s.normal.y * nm.y).abs() >= cos_tol)
+                .map(|s| {
+                    let f = s.foot(w);
+                    (w.distance(&f), f)
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0))?;
+            (d <= gate_px && d > 1e-12).then(|| Pair {
+                p: wp.p,
+                distance_px: d,
+                n: Point2::new((w.x - f.x) / d, (w.y - f.y) / d),
+            })
+        })
+        .collect()
+}
+
+/// One Gauss–Newton step of the module doc's `E` at `warp`: `δθ` for `(a, b, tx, ty)` and,
+/// when `full`, every offset. `None` when the system cannot be solved.
+fn solve_step(
+    warp: &Warp,
+    pairs: &[Pair],
+    prior: &Similarity,
+    config: &FitConfig,
+    full: bool,
+) -> Option<DVector<f64>> {
+    let s0 = prior.scale_px_per_m();
+    let grid = &warp.grid;
+    let m = if full { 4 + 2 * grid.len() } else { 4 };
+    let mut h = DMatrix::<f64>::zeros(m, m);
+    let mut g = DVector::<f64>::zeros(m);
+    let info_l = 1.0 / (config.line_sigma_m * s0).max(1e-6).powi(2);
+    let mut jac: Vec<(usize, f64)> = Vec::with_capacity(12);
+    for pair in pairs {
+        let (p, n, r) = (&pair.p, pair.n, pair.distance_px);
+        jac.clear();
+        jac.push((0, n.x * p.x + n.y * p.y));
+        jac.push((1, -n.x * p.y + n.y * p.x));
+        jac.push((2, n.x));
+        jac.push((3, n.y));
+        if full {
+            for (k, b) in grid.weights(*p) {
+                jac.push((4 + 2 * k, b * n.x));
+                jac.push((5 + 2 * k, b * n.y));
+            }
+        }
+        for &(i, ji) in &jac {
+            g[i] += info_l * r * ji;
+            for &(j, jj) in &jac {
+                h[(i, j)] += info_l * ji * jj;
+            }
+        }
+    }
+    // The prior similarity: (a, b) within σ_ab, t within σ_t.
+    let sigma_ab = s0 * config.scale_error.max(config.rotation_error_rad).max(1e-6);
+    let sigma_t = (config.translation_error_m * s0).max(1e-6);
+    let s = &warp.similarity;
+    let residual_prior = [
+        (0, s.a - prior.a, sigma_ab),
+        (1, s.b - prior.b, sigma_ab),
+        (2, s.t.x - prior.t.x, sigma_t),
+        (3, s.t.y - prior.t.y, sigma_t),
+    ];
+    for (i, r, sigma) in residual_prior {
+        h[(i, i)] += 1.0 / (sigma * sigma);
+        g[i] += r / (sigma * sigma);
+    }
+    if full {
+        let sigma_s = (config.proportion_error * grid.spacing_m * s0).max(1e-6);
+        let info_s = 1.0 / (sigma_s * sigma_s);
+        // σ_o: the proportion error over half the floor.
+        let half_extent_m =
+            0.5 * grid.spacing_m * ((grid.columns - 1) as f64).hypot((grid.rows - 1) as f64);
+        let sigma_o = (config.proportion_error * half_extent_m.max(grid.spacing_m) * s0).max(1e-6);
+        let info_o = 1.0 / (sigma_o * sigma_o);
+        for j in 0..grid.rows {
+            for i in 0..grid.columns {
+                let k = j * grid.columns + i;
+                let o = warp.offsets[k];
+                for (c, v) in [(0, o.x), (1, o.y)] {
+                    h[(4 + 2 * k + c, 4 + 2 * k + c)] += info_o;
+                    g[4 + 2 * k + c] += info_o * v;
+                }
+                let right = (i + 1 < grid.columns).then_some(k + 1);
+                let up = (j + 1 < grid.rows).then_some(k + grid.columns);
+                for l in [right, up].into_iter().flatten() {
+                    let ol = warp.offsets[l];
+                    for (c, r) in [(0, o.x - ol.x), (1, o.y - ol.y)] {
+                        let (a, b) = (4 + 2 * k + c, 4 + 2 * l + c);
+                        h[(a, a)] += info_s;
+                        h[(b, b)] += info_s;
+                        h[(a, b)] -= info_s;
+                        h[(b, a)] -= info_s;
+                        g[a] += info_s * r;
+                        g[b] -= info_s * r;
+                    }
+                }
+            }
+        }
+    }
+    let step = h.cholesky()?.solve(&(-g));
+    step.iter().all(|v| v.is_finite()).then_some(step)
+}
+
+/// Adds `step` (from [`solve_step`]) to `warp`'s parameters.
+fn apply_step(warp: &mut Warp, step: &DVector<f64>, full: bool) {
+    let s = &mut warp.similarity;
+    s.a += step[0];
+    s.b += step[1];
+    s.t = Point2::new(s.t.x + step[2], s.t.y + step[3]);
+    if full {
+        for (k, o) in warp.offsets.iter_mut().enumerate() {
+            *o = Point2::new(o.x + step[4 + 2 * k], o.y + step[5 + 2 * k]);
+        }
+    }
+}

@@ -1,0 +1,16 @@
+//! The map laid over the drawing: a smooth warp from map meters to drawing pixels, fitted
+//! to the walls the LiDAR mapped, so that the robot's pose, the map and the drawing's
+//! rooms can be read on the drawing and in the map alike.
+//!
+//! Sits after the back end: the drawing's proportions are wrong, its topology and wall
+//! directions right, so a similarity (the start mark and scale guess) does not carry the map
+//! onto it beyond the first room; a similarity plus offsets on a control grid a few meters
+//! apart, regularized towards the similarity, does.
+//! - [`warp`]: W itself (similarity + bilinear control-grid offsets), its Jacobian;
+//! - [`fit`]: W estimated from the map's wall points against the drawing's lines.
+
+pub mod fit;
+pub mod warp;
+
+pub use fit::{FitConfig, WarpFit, fit_warp};
+pub use warp::{ControlGrid, Similarity, Warp};
