@@ -9,7 +9,7 @@ use crate::metrics::{self, StampedPose, WallGrid};
 use crate::overlay;
 use crate::run_loop::map_in_process;
 use crate::run_method::RunMethod;
-use crate::sketch_truth::fill_sketch_pose_scores;
+use crate::sketch_truth::{fill_sketch_pose_scores, score_published_poses};
 use anyhow::{Context, Result};
 use serde::Serialize;
 use sketchslam_engine::mapper::{Method, SketchPrior};
@@ -107,6 +107,17 @@ pub struct RunResult {
     /// Median heading error on the drawing, degrees.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sketch_heading_median_deg: Option<f64>,
+    /// In-process `sketch` runs on a scenario with `sketch-truth.toml`: median error of the
+    /// final trajectory carried onto the drawing through the warp fitted to the final map
+    /// ([`sketchslam_engine::mapper::Mapper::drawing_warp`]), meters at the nominal scale.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub warp_pose_median_m: Option<f64>,
+    /// 95th percentile of that error, meters at the nominal scale.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub warp_pose_p95_m: Option<f64>,
+    /// Share of those poses within 1 m-equivalent of the truth.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub warp_pose_within_1m: Option<f64>,
     /// Where the artifacts are.
     pub out_dir: PathBuf,
 }
@@ -194,6 +205,13 @@ pub fn run_in_process(
             &run.truth,
             &run.sketch_poses,
         )?;
+        if let Some(score) =
+            score_published_poses(&scenario.dir, &cfg.name, &run.truth, &run.warp_poses)?
+        {
+            result.warp_pose_median_m = Some(score.median_m);
+            result.warp_pose_p95_m = Some(score.p95_m);
+            result.warp_pose_within_1m = Some(score.within_1m);
+        }
     }
     Ok(result)
 }
@@ -270,6 +288,9 @@ pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
         sketch_pose_p95_m: None,
         sketch_pose_within_1m: None,
         sketch_heading_median_deg: None,
+        warp_pose_median_m: None,
+        warp_pose_p95_m: None,
+        warp_pose_within_1m: None,
         out_dir: out_dir.to_path_buf(),
     })
 }

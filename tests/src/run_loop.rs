@@ -17,6 +17,7 @@ use sketchslam_api::SketchTrajectoryResponse;
 use sketchslam_engine::mapper::{
     DrawingPoseSource, Mapper, Method, TrajectoryPoint, trajectory_csv,
 };
+use sketchslam_engine::registration::render_map_on_drawing;
 use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::SimStep;
 use sketchslam_simulator::scenario::SketchConfig;
@@ -38,6 +39,9 @@ pub struct InProcessRun {
     /// `sketch` runs: MCL's pose on the drawing at each scan, stamp in seconds, in scan
     /// order ([`mcl_poses`] of the mapper's trajectory on the drawing).
     pub sketch_poses: Vec<(f64, SketchPose)>,
+    /// `sketch` runs: every pose of the final trajectory carried onto the drawing through the
+    /// warp fitted to the final map, stamp in seconds (empty when there was nothing to fit).
+    pub warp_poses: Vec<(f64, SketchPose)>,
 }
 
 /// Maps `steps` (a stream of `scan_count` scans) with `method` (and, for `sketch`, the
@@ -108,12 +112,28 @@ pub fn map_in_process(
     sketchslam_simulator::truth::write_truth_csv(&out_dir.join("truth.csv"), &truth)?;
     std::fs::write(out_dir.join(ONLINE_TRAJECTORY_FILE), trajectory_csv(&live))?;
     let mut sketch_poses = Vec::new();
+    let mut warp_poses = Vec::new();
     if method == Method::Sketch {
         // The whole trajectory on the drawing, through the service's own codec, so the file
         // is what `?frame=sketch&format=csv` serves.
         let on_drawing = sketch_trajectory_response("in-process", mapper.drawing_trajectory());
         std::fs::write(out_dir.join("sketch-trajectory.csv"), on_drawing.to_csv())?;
         sketch_poses = mcl_poses(&on_drawing);
+        if let Some(fit) = mapper.drawing_warp() {
+            warp_poses = mapper
+                .trajectory()
+                .iter()
+                .map(|t| (t.stamp_ns as f64 * 1e-9, fit.warp.pose_on_drawing(&t.pose)))
+                .collect();
+            std::fs::write(out_dir.join(WARP_TRAJECTORY_FILE), warp_csv(&warp_poses))?;
+            if let Some(drawing) = mapper.drawing() {
+                let route: Vec<_> = mapper.trajectory().iter().map(|t| t.pose).collect();
+                // Refreshed above, before the map was saved.
+                let walls = mapper.grid_as_built().occupied_points();
+                render_map_on_drawing(&drawing.sketch, &fit.warp, &walls, &route)
+                    .save(out_dir.join("map-on-drawing.png"))?;
+            }
+        }
     }
     Ok(InProcessRun {
         mapper,
@@ -121,7 +141,24 @@ pub fn map_in_process(
         mapping_s,
         scan_ms,
         sketch_poses,
+        warp_poses,
     })
+}
+
+/// The final trajectory on the drawing through the fitted warp, written by in-process
+/// `sketch` runs.
+pub const WARP_TRAJECTORY_FILE: &str = "warp-trajectory.csv";
+
+/// `t,u,v,heading,meters_per_pixel` rows (seconds, pixels, radians as the drawing is seen).
+fn warp_csv(poses: &[(f64, SketchPose)]) -> String {
+    let mut csv = String::from("t,u,v,heading,meters_per_pixel\n");
+    for (t, p) in poses {
+        csv.push_str(&format!(
+            "{t:.6},{:.2},{:.2},{:.5},{:.5}\n",
+            p.u_px, p.v_px, p.heading_rad, p.meters_per_pixel
+        ));
+    }
+    csv
 }
 
 /// The poses MCL gave on the drawing (one per scan) of a trajectory on the drawing, stamp in

@@ -225,6 +225,23 @@ pub fn pair_by_stamp(
     (t, e)
 }
 
+/// Scores poses on the drawing `cfg_name` (stamp in seconds, in stamp order) against the
+/// truth of the same stamps, when the scenario in `scenario_dir` says how that drawing was
+/// made; `None` when it does not, or without a pose to score.
+pub fn score_published_poses(
+    scenario_dir: &Path,
+    cfg_name: &str,
+    truth: &[StampedPose],
+    published: &[(f64, SketchPose)],
+) -> Result<Option<SketchPoseScore>> {
+    // Scoring only: the session never saw this file.
+    let Some(drawing) = DrawingTruth::load(scenario_dir, cfg_name)? else {
+        return Ok(None);
+    };
+    let (truth, estimate) = pair_by_stamp(truth, published);
+    Ok(score_sketch_poses(&truth, &estimate, &drawing))
+}
+
 /// Scores a `sketch` run's published poses on the drawing `cfg_name` against the truth,
 /// when the scenario in `scenario_dir` says how that drawing was made; writes the figures
 /// into `result` (left `None` otherwise).
@@ -235,12 +252,7 @@ pub fn fill_sketch_pose_scores(
     truth: &[StampedPose],
     published: &[(f64, SketchPose)],
 ) -> Result<()> {
-    // Scoring only: the session never saw this file.
-    let Some(drawing) = DrawingTruth::load(scenario_dir, cfg_name)? else {
-        return Ok(());
-    };
-    let (truth, estimate) = pair_by_stamp(truth, published);
-    if let Some(score) = score_sketch_poses(&truth, &estimate, &drawing) {
+    if let Some(score) = score_published_poses(scenario_dir, cfg_name, truth, published)? {
         result.sketch_pose_median_m = Some(score.median_m);
         result.sketch_pose_p95_m = Some(score.p95_m);
         result.sketch_pose_within_1m = Some(score.within_1m);

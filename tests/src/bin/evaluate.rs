@@ -471,7 +471,7 @@ fn print_relations(results: &[RunResult]) {
 
 fn print_table(results: &[RunResult]) {
     println!(
-        "{:<12} {:<9} {:<8} {:>7} {:>8} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>5} {:>5} {:>5} {:>8} {:>6}",
+        "{:<12} {:<9} {:<8} {:>7} {:>8} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5}",
         "scenario",
         "method",
         "sketch",
@@ -489,12 +489,14 @@ fn print_table(results: &[RunResult]) {
         "loops",
         "rej.",
         "drw med",
-        "drw≤1m"
+        "drw≤1m",
+        "W med",
+        "W≤1m"
     );
     let opt = |v: Option<f64>, prec: usize| v.map_or("-".to_string(), |v| format!("{v:.prec$}"));
     for r in results {
         println!(
-            "{:<12} {:<9} {:<8} {} {:>8} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5} {:>5} {:>5} {:>8} {:>6}",
+            "{:<12} {:<9} {:<8} {} {:>8} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5}",
             r.scenario,
             r.method,
             r.sketch.as_deref().unwrap_or("-"),
@@ -512,7 +514,9 @@ fn print_table(results: &[RunResult]) {
             r.loop_closures,
             r.loop_closures_rejected,
             opt(r.sketch_pose_median_m, 2),
-            opt(r.sketch_pose_within_1m.map(|w| 100.0 * w), 0)
+            opt(r.sketch_pose_within_1m.map(|w| 100.0 * w), 0),
+            opt(r.warp_pose_median_m, 2),
+            opt(r.warp_pose_within_1m.map(|w| 100.0 * w), 0)
         );
     }
     if let Some(r) = results.first() {
@@ -534,7 +538,9 @@ fn print_table(results: &[RunResult]) {
             "live m: ATE of each scan's pose as first published (before later loop closures), \
              under the final trajectory's alignment; drw med: median error of the pose on the drawing, meters at the drawing's scale; \
              drw≤1m: % of scans within 1 m of it (truth carried onto the drawing by \
-             sketch-truth.toml; through the processes, the session's trajectory on the drawing)"
+             sketch-truth.toml; through the processes, the session's trajectory on the drawing); \
+             W med, W≤1m: the same for the final trajectory carried onto the drawing through the \
+             warp fitted to the final map (in-process)"
         );
     }
 }

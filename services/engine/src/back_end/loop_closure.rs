@@ -240,6 +240,11 @@ impl LoopCloser {
         self.graph.nodes()
     }
 
+    /// Each keyframe's scan points, robot frame, thinned (same order as [`Self::poses`]).
+    pub fn keyframe_points(&self) -> &[Vec<Point2>] {
+        &self.points
+    }
+
     /// The loops closed so far.
     pub fn closures(&self) -> &[LoopClosure] {
         &self.closures

@@ -3,6 +3,7 @@
 use crate::back_end::loop_closure::LoopClosureConfig;
 use crate::localization::mcl::MclConfig;
 use crate::mapping::grid::GridConfig;
+use crate::registration::FitConfig;
 use crate::scan_matching::icp::IcpConfig;
 use crate::scan_matching::odometry_noise::OdometryNoise;
 use crate::sketch::{Sketch, SketchPose};
@@ -73,6 +74,9 @@ pub struct MapperConfig {
     /// alone. `odometry` and `icp` never close loops (`icp` is the paper's frame-to-frame
     /// ICP-SLAM).
     pub loop_closure: Option<LoopClosureConfig>,
+    /// `sketch` sessions: the fit of the warp from the map onto the drawing
+    /// ([`crate::registration`], [`super::Mapper::drawing_warp`]).
+    pub registration: FitConfig,
     /// Seed of every random draw of the session.
     pub seed: u64,
 }
@@ -89,6 +93,7 @@ impl Default for MapperConfig {
             sketch_heading_gain: 0.05,
             sketch_heading_deadband_rad: 4f64.to_radians(),
             loop_closure: Some(LoopClosureConfig::default()),
+            registration: FitConfig::default(),
             seed: 1,
         }
     }

@@ -60,12 +60,14 @@ use crate::EngineError;
 use crate::back_end::heading_prior::WallHeadingPrior;
 use crate::back_end::loop_closure::LoopCloser;
 use crate::mapping::grid::OccupancyGrid;
+use crate::registration::{Similarity, WarpFit, fit_warp};
+use crate::scan_matching::correlative::voxel_filter;
 use crate::scan_matching::odometry_noise::OdometryPath;
 use crate::sketch::SketchPose;
 use front_end::FrontEnd;
 use keyframe_icp::KeyframeIcp;
 use sketch_front_end::SketchFrontEnd;
-use sketchslam_types::{Odometry, Pose2, Scan, SensorEvent};
+use sketchslam_types::{Odometry, Point2, Pose2, Scan, SensorEvent};
 
 /// Seed offset of the heading-prior stage's own random stream (distinct from the front
 /// end's, which is seeded with `MapperConfig::seed` itself).
@@ -107,6 +109,8 @@ pub struct Mapper {
     config: MapperConfig,
     front_end: FrontEnd,
     back_end: Option<BackEnd>,
+    /// `sketch` sessions: the drawing and the start marked on it.
+    drawing: Option<SketchPrior>,
     grid: OccupancyGrid,
     /// Map pose of the robot at the start (identity, or the sketch's start heading).
     start_pose: Pose2,
@@ -155,6 +159,7 @@ impl Mapper {
         prior: Option<SketchPrior>,
         config: MapperConfig,
     ) -> Result<Mapper, EngineError> {
+        let drawing = prior.clone().filter(|_| method == Method::Sketch);
         let (front_end, start_pose, back_end) = match method {
             Method::Odometry => (FrontEnd::Odometry, Pose2::IDENTITY, None),
             Method::Icp => (
@@ -191,6 +196,7 @@ impl Mapper {
             config,
             front_end,
             back_end,
+            drawing,
             start_pose,
             odom_origin: None,
             odom_now: None,
@@ -459,6 +465,40 @@ impl Mapper {
             })
             .collect();
         Some(loops)
+    }
+
+    /// `sketch` sessions with loop closure: the warp from the map onto the drawing
+    /// ([`crate::registration`]) fitted to the keyframes' walls at their current poses,
+    /// from the start marked on the drawing and its scale guess (the map frame's origin is
+    /// the start and its axes the drawing's); `None` for the other methods or with nothing
+    /// to fit yet. Mapping-side work, O(points · lines) per iteration of the fit.
+    pub fn drawing_warp(&self) -> Option<WarpFit> {
+        const VOXEL_M: f64 = 0.1;
+        let drawing = self.drawing.as_ref()?;
+        let back_end = self.back_end.as_ref()?;
+        let closer = &back_end.closer;
+        let mut walls = Vec::new();
+        for (pose, points) in closer.poses().iter().zip(closer.keyframe_points()) {
+            walls.extend(points.iter().map(|p| pose.transform_point(p)));
+        }
+        let walls = voxel_filter(&walls, VOXEL_M);
+        let start = drawing.start;
+        let prior = Similarity::new(
+            1.0 / start.meters_per_pixel,
+            0.0,
+            Point2::new(start.u_px, -start.v_px),
+        );
+        fit_warp(
+            &walls,
+            &drawing.sketch.lines,
+            prior,
+            &self.config.registration,
+        )
+    }
+
+    /// `sketch` sessions: the drawing the session maps with.
+    pub fn drawing(&self) -> Option<&SketchPrior> {
+        self.drawing.as_ref()
     }
 
     /// The map pose of the robot at its start.
@@ -795,5 +835,28 @@ mod tests {
         // The baselines have no drawing.
         let (icp, _) = drive_laps(Method::Icp, MapperConfig::default(), |_, _| {});
         assert!(icp.drawing_trajectory().is_empty());
+    }
+
+    #[test]
+    fn the_warp_fitted_to_the_map_lays_the_route_on_its_drawing() {
+        let (m, truth) = drive_laps(Method::Sketch, MapperConfig::default(), |_, _| {});
+        let fit = m
+            .drawing_warp()
+            .expect("a sketch session with keyframes has a warp");
+        // Each final pose through W against its true pose drawn at (10 + x / 0.05,
+        // 130 − y / 0.05): within 3 px (0.15 m) everywhere.
+        assert_eq!(m.trajectory().len(), truth.len());
+        for (p, t) in m.trajectory().iter().zip(&truth) {
+            let on = fit.warp.pose_on_drawing(&p.pose);
+            let off_px = (on.u_px - (10.0 + t.x / 0.05)).hypot(on.v_px - (130.0 - t.y / 0.05));
+            assert!(off_px < 3.0, "{t:?} {off_px:.1} px off");
+            assert!(
+                sketchslam_types::wrap_angle(on.heading_rad - t.heading_rad).abs()
+                    < 2f64.to_radians()
+            );
+        }
+        assert!(fit.inliers > 100, "{}", fit.inliers);
+        let (graph, _) = drive_laps(Method::Graph, MapperConfig::default(), |_, _| {});
+        assert!(graph.drawing_warp().is_none());
     }
 }

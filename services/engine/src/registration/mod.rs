@@ -7,10 +7,13 @@
 //! onto it beyond the first room; a similarity plus offsets on a control grid a few meters
 //! apart, regularized towards the similarity, does.
 //! - [`warp`]: W itself (similarity + bilinear control-grid offsets), its Jacobian;
-//! - [`fit`]: W estimated from the map's wall points against the drawing's lines.
+//! - [`fit`]: W estimated from the map's wall points against the drawing's lines;
+//! - [`overlay`]: the map drawn over the drawing through W.
 
 pub mod fit;
+pub mod overlay;
 pub mod warp;
 
 pub use fit::{FitConfig, WarpFit, fit_warp};
+pub use overlay::render_map_on_drawing;
 pub use warp::{ControlGrid, Similarity, Warp};

@@ -17,8 +17,9 @@
 //! keeps its fit a least-squares problem. Outside the grid the nearest cell's weights are
 //! extended (clamped). Cost: O(1) per point.
 
+use crate::sketch::SketchPose;
 use nalgebra::Matrix2;
-use sketchslam_types::Point2;
+use sketchslam_types::{Point2, Pose2};
 
 /// The similarity part of W.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -216,6 +217,24 @@ impl Warp {
         let d = self.jacobian(p) * nalgebra::Vector2::new(heading_rad.cos(), heading_rad.sin());
         d.y.atan2(d.x)
     }
+
+    /// A map pose on the drawing: its pixel, its heading turned by W's local rotation, and
+    /// the drawing's local scale `1 / √|det J|` meters per pixel (an area's mean).
+    pub fn pose_on_drawing(&self, pose: &Pose2) -> SketchPose {
+        let p = pose.position();
+        let px = self.to_pixel(p);
+        let det = self.jacobian(p).determinant().abs();
+        SketchPose {
+            u_px: px.x,
+            v_px: px.y,
+            heading_rad: self.heading_on_drawing(p, pose.heading_rad),
+            meters_per_pixel: if det > 0.0 {
+                1.0 / det.sqrt()
+            } else {
+                f64::NAN
+            },
+        }
+    }
 }
 
 #[cfg(test)]
@@ -278,5 +297,10 @@ mod tests {
         assert!((j[(0, 0)] - 10.0 * 0.3f64.cos()).abs() < 1e-9, "{j}");
         assert!((j[(1, 0)] - 10.0 * 0.3f64.sin()).abs() < 1e-9, "{j}");
         assert!((w.heading_on_drawing(Point2::new(3.0, 1.0), 0.2) - 0.5).abs() < 1e-9);
+        // On the drawing: (3, 1) turned 0.3 rad at 10 px/m, v = −y.
+        let on = w.pose_on_drawing(&Pose2::new(3.0, 1.0, 0.2));
+        let at = s.apply(Point2::new(3.0, 1.0));
+        assert!((on.u_px - at.x).abs() < 1e-9 && (on.v_px + at.y).abs() < 1e-9);
+        assert!((on.heading_rad - 0.5).abs() < 1e-9 && (on.meters_per_pixel - 0.1).abs() < 1e-9);
     }
 }
