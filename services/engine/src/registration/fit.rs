@@ -66,8 +66,12 @@ pub struct FitConfig {
     pub direction_tolerance_rad: f64,
     /// Iterations fitting the similarity alone.
     pub similarity_iterations: usize,
-    /// Iterations fitting everything.
+    /// Iterations fitting everything, per level of the control grid.
     pub warp_iterations: usize,
+    /// Levels of the control grid, coarse to fine: spacings `2^(levels−1) · spacing_m` down
+    /// to `spacing_m`, so a floor's large proportions settle before a room's (1: the fine
+    /// grid alone).
+    pub levels: usize,
 }
 
 impl Default for FitConfig {
@@ -84,6 +88,7 @@ impl Default for FitConfig {
             direction_tolerance_rad: 20f64.to_radians(),
             similarity_iterations: 10,
             warp_iterations: 15,
+            levels: 3,
         }
     }
 }
@@ -184,27 +189,39 @@ pub fn fit_warp(
             )
         },
     );
-    let grid = ControlGrid::covering(lo, hi, config.spacing_m);
-    let mut warp = Warp::rigid(prior, grid);
     let px = |m: f64| m * s0;
     let cos_tol = config.direction_tolerance_rad.clamp(0.0, FRAC_PI_2).cos();
-    // The similarity first, then everything, under one gate shrinking from the start gate:
-    // the offsets only move walls within a drawing's error of where the similarity put
-    // them (given the start gate again, they fold the map onto the nearest lines instead).
+    // Coarse to fine: spacings 2^(L−1)·s … s. A level's gate is what its cells cannot bend:
+    // a person's proportion error over half a cell, and at least `gate_m`.
+    let levels = config.levels.max(1);
+    let spacing_at =
+        |level: usize| config.spacing_m * f64::from(1u32 << (levels - 1 - level).min(8));
+    let level_gate_px =
+        |spacing_m: f64| px((0.5 * config.proportion_error * spacing_m).max(config.gate_m));
+    let mut warp = Warp::rigid(prior, ControlGrid::covering(lo, hi, spacing_at(0)));
+    // The similarity first, its gate shrinking from the start gate to the first level's.
     let mut gate_px = px(config.start_gate_m.max(config.gate_m));
-    for (full, iterations) in [
-        (false, config.similarity_iterations),
-        (true, config.warp_iterations),
-    ] {
-        for _ in 0..iterations {
+    for _ in 0..config.similarity_iterations {
+        let pairs = associate(&warp, &points, &segments, gate_px, cos_tol);
+        let Some(step) = solve_step(&warp, &pairs, &prior, config, false) else {
+            break;
+        };
+        apply_step(&mut warp, &step, false);
+        gate_px = (gate_px * 0.8).max(level_gate_px(spacing_at(0)));
+    }
+    for level in 0..levels {
+        let spacing_m = spacing_at(level);
+        warp = warp.resampled(ControlGrid::covering(lo, hi, spacing_m));
+        gate_px = gate_px.min(level_gate_px(spacing_m));
+        for _ in 0..config.warp_iterations {
             let pairs = associate(&warp, &points, &segments, gate_px, cos_tol);
-            let Some(step) = solve_step(&warp, &pairs, &prior, config, full) else {
+            let Some(step) = solve_step(&warp, &pairs, &prior, config, true) else {
                 break;
             };
-            apply_step(&mut warp, &step, full);
-            gate_px = (gate_px * 0.8).max(px(config.gate_m));
+            apply_step(&mut warp, &step, true);
         }
     }
+    let grid = warp.grid;
     let pairs = associate(&warp, &points, &segments, gate_px, cos_tol);
     let mut support = vec![0.0; grid.len()];
     let mut sum_sq = 0.0;

@@ -173,6 +173,26 @@ impl Warp {
         }
     }
 
+    /// The same warp on another control grid: each new node takes the offset this warp
+    /// has at its place (coarse to fine, exact for a grid that halves this one's cells).
+    pub fn resampled(&self, grid: ControlGrid) -> Warp {
+        let offsets = (0..grid.len())
+            .map(|k| {
+                let q = Point2::new(
+                    grid.origin.x + (k % grid.columns) as f64 * grid.spacing_m,
+                    grid.origin.y + (k / grid.columns) as f64 * grid.spacing_m,
+                );
+                let (w, s) = (self.apply(q), self.similarity.apply(q));
+                Point2::new(w.x - s.x, w.y - s.y)
+            })
+            .collect();
+        Warp {
+            similarity: self.similarity,
+            grid,
+            offsets,
+        }
+    }
+
     /// `W(p)`, drawing frame pixels.
     pub fn apply(&self, p: Point2) -> Point2 {
         let s = self.similarity.apply(p);
@@ -287,6 +307,24 @@ mod tests {
         assert!((s.rotation_rad() - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
         // Image pixels flip the drawing frame's y.
         assert_eq!(w.to_pixel(Point2::new(1.0, 0.0)).y, -25.0);
+    }
+
+    #[test]
+    fn a_finer_grid_carries_the_same_warp() {
+        let s = Similarity::new(20.0, 0.1, Point2::new(3.0, 4.0));
+        let mut w = Warp::rigid(s, grid());
+        w.offsets[4] = Point2::new(8.0, -2.0);
+        w.offsets[2] = Point2::new(-3.0, 1.0);
+        let fine = w.resampled(ControlGrid::covering(
+            Point2::new(0.0, 0.0),
+            Point2::new(8.0, 4.0),
+            2.0,
+        ));
+        assert_eq!((fine.grid.columns, fine.grid.rows), (5, 3));
+        for (x, y) in [(0.3, 0.2), (2.0, 2.0), (5.1, 3.7), (7.9, 0.1), (4.0, 4.0)] {
+            let p = Point2::new(x, y);
+            assert!(w.apply(p).distance(&fine.apply(p)) < 1e-9, "({x}, {y})");
+        }
     }
 
     #[test]
