@@ -16,8 +16,8 @@
 //!   point-to-line inside the segment and point-to-point beyond its ends). A point farther
 //!   than the gate from every line is left out (truncated least squares): furniture, people
 //!   and walls nobody drew do not pull. The gate shrinks from `start_gate_m` (where the
-//!   prior may put a wall) to `gate_m` (how far a drawn wall may lie from its true place
-//!   once warped), as ICP's does. A point pairs only with lines of its own wall's direction
+//!   prior may put a wall) towards `gate_m` (how far a drawn wall may lie from its true
+//!   place once warped), as ICP's does. A point pairs only with lines of its own wall's direction
 //!   (within `direction_tolerance_rad`): a drawing's wall directions are right.
 //! - `σ_l`: a drawn wall's own error (pen, straightness) after the warp; `σ_s =
 //!   proportion_error · spacing`: neighbouring nodes' offsets differ by a person's error of
@@ -28,7 +28,11 @@
 //!
 //! Gauss–Newton (the model is linear in θ; the nearest lines are found again each
 //! iteration): first the similarity alone (a few iterations, the offsets held at zero), then
-//! everything. All lengths in meters are turned into pixels at the prior's scale. Cost per
+//! everything on control grids refined coarse to fine (`levels`: 16, 8, 4 m at the
+//! defaults; each level starts from the last, [`Warp::resampled`]), so a floor's large
+//! proportions settle before a room's. A level's gate is what its cells cannot bend, a
+//! person's proportion error over half a cell (at least `gate_m`); the gate never widens
+//! again (widened for the deformation, it folded maps onto the nearest lines). All lengths in meters are turned into pixels at the prior's scale. Cost per
 //! iteration: O(n · L) to associate n points with L lines, O(n) to build, O(m³) to solve for
 //! m = 4 + 2 · nodes parameters (a 60 × 40 m floor at 4 m: 356).
 //!
