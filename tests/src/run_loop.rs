@@ -23,6 +23,7 @@ use sketchslam_simulator::SimStep;
 use sketchslam_simulator::scenario::SketchConfig;
 use sketchslam_slam::codec::sketch_trajectory_response;
 use sketchslam_types::SensorEvent;
+use sketchslam_types::sketch_trajectory_csv::{self, DrawingRow};
 use std::path::Path;
 use std::time::Instant;
 
@@ -125,7 +126,21 @@ pub fn map_in_process(
                 .iter()
                 .map(|t| (t.stamp_ns as f64 * 1e-9, fit.warp.pose_on_drawing(&t.pose)))
                 .collect();
-            std::fs::write(out_dir.join(WARP_TRAJECTORY_FILE), warp_csv(&warp_poses))?;
+            let rows: Vec<DrawingRow> = warp_poses
+                .iter()
+                .map(|(t_s, p)| DrawingRow {
+                    t_s: *t_s,
+                    u_px: p.u_px,
+                    v_px: p.v_px,
+                    heading_rad: p.heading_rad,
+                    meters_per_pixel: p.meters_per_pixel,
+                })
+                .collect();
+            // The format of `sketch-trajectory.csv`, by the same writer.
+            std::fs::write(
+                out_dir.join(WARP_TRAJECTORY_FILE),
+                sketch_trajectory_csv::write(&rows),
+            )?;
             if let Some(drawing) = mapper.drawing() {
                 let route: Vec<_> = mapper.trajectory().iter().map(|t| t.pose).collect();
                 // Refreshed above, before the map was saved.
@@ -148,18 +163,6 @@ pub fn map_in_process(
 /// The final trajectory on the drawing through the fitted warp, written by in-process
 /// `sketch` runs.
 pub const WARP_TRAJECTORY_FILE: &str = "warp-trajectory.csv";
-
-/// `t,u,v,heading,meters_per_pixel` rows (seconds, pixels, radians as the drawing is seen).
-fn warp_csv(poses: &[(f64, SketchPose)]) -> String {
-    let mut csv = String::from("t,u,v,heading,meters_per_pixel\n");
-    for (t, p) in poses {
-        csv.push_str(&format!(
-            "{t:.6},{:.2},{:.2},{:.5},{:.5}\n",
-            p.u_px, p.v_px, p.heading_rad, p.meters_per_pixel
-        ));
-    }
-    csv
-}
 
 /// The poses MCL gave on the drawing (one per scan) of a trajectory on the drawing, stamp in
 /// seconds: what the scoring of the pose on the drawing compares with the truth, in both

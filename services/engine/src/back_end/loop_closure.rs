@@ -94,8 +94,9 @@ pub struct LoopClosureConfig {
     /// Gauss–Newton settings.
     pub optimize: OptimizeConfig,
     /// χ² bound (3 degrees of freedom) of the consistency tests of a matched loop against
-    /// the odometry chain and against another loop ([`crate::back_end::closure_consistency`]). Default
-    /// 11.34, the 99 % quantile: a right loop fails one test in a hundred.
+    /// the odometry chain and against another loop
+    /// ([`crate::back_end::closure_consistency`]). Default 11.34, the 99 % quantile: a right
+    /// loop fails one test in a hundred.
     pub consistency_chi2: f64,
     /// A matched loop enters the graph once this many loops, itself included, agree
     /// pairwise; one that agrees with a loop already in the graph near it needs only that

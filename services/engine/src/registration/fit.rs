@@ -17,8 +17,8 @@
 //!   than the gate from every line is left out (truncated least squares): furniture, people
 //!   and walls nobody drew do not pull. The gate shrinks from `start_gate_m` (where the
 //!   prior may put a wall) towards `gate_m` (how far a drawn wall may lie from its true
-//!   place once warped), as ICP's does. A point pairs only with lines of its own wall's direction
-//!   (within `direction_tolerance_rad`): a drawing's wall directions are right.
+//!   place once warped), as ICP's does. A point pairs only with lines of its own wall's
+//!   direction (within `direction_tolerance_rad`): a drawing's wall directions are right.
 //! - `σ_l`: a drawn wall's own error (pen, straightness) after the warp; `σ_s =
 //!   proportion_error · spacing`: neighbouring nodes' offsets differ by a person's error of
 //!   proportion over one cell, the regularizer of Mielle et al.'s (Robotics 2019) emergency
@@ -32,8 +32,8 @@
 //! defaults; each level starts from the last, [`Warp::resampled`]), so a floor's large
 //! proportions settle before a room's. A level's gate is what its cells cannot bend, a
 //! person's proportion error over half a cell (at least `gate_m`); the gate never widens
-//! again (widened for the deformation, it folded maps onto the nearest lines). All lengths in meters are turned into pixels at the prior's scale. Cost per
-//! iteration: O(n · L) to associate n points with L lines, O(n) to build, O(m³) to solve for
+//! again (widened for the deformation, it folded maps onto the nearest lines). All lengths
+//! in meters are turned into pixels at the prior's scale. Cost per iteration: O(n · L) to associate n points with L lines, O(n) to build, O(m³) to solve for
 //! m = 4 + 2 · nodes parameters (a 60 × 40 m floor at 4 m: 356).
 //!
 //! Pure: values in, values out.
@@ -148,14 +148,10 @@ pub fn fit_warp(
     prior: Similarity,
     config: &FitConfig,
 ) -> Option<WarpFit> {
-    let finite: Vec<Point2> = points
-        .iter()
-        .copied()
-        .filter(|p| p.x.is_finite() && p.y.is_finite())
-        .collect();
-    // The wall through each point (PCA over its neighbours, as ICP's reference normals);
-    // points on no line (clutter, corners) take no part.
-    let icp = Icp::new(&finite, IcpConfig::default());
+    // The wall through each point (PCA over its neighbours, as ICP's reference normals,
+    // which also drops the non-finite points); points on no line (clutter, corners) take no
+    // part.
+    let icp = Icp::new(points, IcpConfig::default());
     let points: Vec<WallPoint> = icp
         .points()
         .iter()
@@ -178,7 +174,7 @@ pub fn fit_warp(
             })
         })
         .collect();
-    if points.is_empty() || segments.is_empty() {
+    if segments.is_empty() {
         return None;
     }
     let (lo, hi) = points.iter().map(|w| w.p).fold(
@@ -235,11 +231,10 @@ pub fn fit_warp(
             support[k] += w;
         }
     }
-    let last = (pairs.len(), (sum_sq / pairs.len().max(1) as f64).sqrt());
     Some(WarpFit {
         warp,
-        inliers: last.0,
-        rms_px: last.1,
+        inliers: pairs.len(),
+        rms_px: (sum_sq / pairs.len().max(1) as f64).sqrt(),
         support,
     })
 }

@@ -7,6 +7,7 @@
 
 use super::warp::Warp;
 use crate::sketch::Sketch;
+use crate::sketch::overlay::strokes_on_white;
 use image::{Rgb, RgbImage};
 use sketchslam_types::{Point2, Pose2};
 
@@ -23,14 +24,7 @@ pub fn render_map_on_drawing(
     route: &[Pose2],
 ) -> RgbImage {
     let (w, h) = (sketch.width_px, sketch.height_px);
-    let mut img = RgbImage::from_pixel(w, h, Rgb([255, 255, 255]));
-    if sketch.strokes.len() as u64 == w as u64 * h as u64 {
-        for (i, &s) in sketch.strokes.iter().enumerate() {
-            if s {
-                img.put_pixel(i as u32 % w, i as u32 / w, STROKE);
-            }
-        }
-    }
+    let mut img = strokes_on_white(sketch, STROKE);
     let mut put = |p: Point2, colour: Rgb<u8>| {
         if p.x.is_finite() && p.y.is_finite() && p.x >= 0.0 && p.y >= 0.0 {
             let (x, y) = (p.x as u32, p.y as u32);

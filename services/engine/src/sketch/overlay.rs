@@ -36,18 +36,26 @@ fn put(img: &mut RgbImage, x: i64, y: i64, c: Rgb<u8>) {
     }
 }
 
-/// Renders the overlay: white background, strokes light grey, lines coloured about
-/// `max(2, D / 400)` pixels thick (`D` the diagonal), indices beside the midpoints.
-pub fn render_overlay(sketch: &Sketch) -> RgbImage {
+/// The drawing's size in white with its stroke mask in `colour` (white alone when the mask
+/// does not match the size): the background every picture over a drawing starts from.
+pub fn strokes_on_white(sketch: &Sketch, colour: Rgb<u8>) -> RgbImage {
     let (w, h) = (sketch.width_px, sketch.height_px);
     let mut img = RgbImage::from_pixel(w, h, Rgb([255, 255, 255]));
     if sketch.strokes.len() as u64 == w as u64 * h as u64 {
         for (i, &s) in sketch.strokes.iter().enumerate() {
             if s {
-                img.put_pixel(i as u32 % w, i as u32 / w, Rgb([200, 200, 200]));
+                img.put_pixel(i as u32 % w, i as u32 / w, colour);
             }
         }
     }
+    img
+}
+
+/// Renders the overlay: white background, strokes light grey, lines coloured about
+/// `max(2, D / 400)` pixels thick (`D` the diagonal), indices beside the midpoints.
+pub fn render_overlay(sketch: &Sketch) -> RgbImage {
+    let (w, h) = (sketch.width_px, sketch.height_px);
+    let mut img = strokes_on_white(sketch, Rgb([200, 200, 200]));
     let diag = ((w as f64).powi(2) + (h as f64).powi(2)).sqrt();
     let half = ((diag / 800.0).round() as i64).max(1);
     let scale = ((diag / 500.0).round() as u32).clamp(2, 8);
