@@ -60,7 +60,7 @@ use crate::EngineError;
 use crate::back_end::heading_prior::WallHeadingPrior;
 use crate::back_end::loop_closure::LoopCloser;
 use crate::mapping::grid::OccupancyGrid;
-use crate::registration::{Similarity, WarpFit, fit_warp};
+use crate::registration::{Similarity, WarpFit, WarpProblem};
 use crate::scan_matching::correlative::voxel_filter;
 use crate::scan_matching::odometry_noise::OdometryPath;
 use crate::sketch::SketchPose;
@@ -471,8 +471,21 @@ impl Mapper {
     /// ([`crate::registration`]) fitted to the keyframes' walls at their current poses,
     /// from the start marked on the drawing and its scale guess (the map frame's origin is
     /// the start and its axes the drawing's); `None` for the other methods or with nothing
-    /// to fit yet. Mapping-side work, O(points · lines) per iteration of the fit.
+    /// to fit yet. Mapping-side work, O(points · lines) per iteration of the fit: a service
+    /// copies [`Mapper::warp_problem`] out and solves it without the mapper.
     pub fn drawing_warp(&self) -> Option<WarpFit> {
+        self.warp_problem()?.solve().map(|r| r.fit)
+    }
+
+    /// Keyframes in the pose graph (0 without loop closure). O(1).
+    pub fn keyframe_count(&self) -> usize {
+        self.back_end.as_ref().map_or(0, |b| b.closer.poses().len())
+    }
+
+    /// What [`Mapper::drawing_warp`] fits, copied out (the keyframes' walls thinned to
+    /// 0.1 m, the drawing's lines, the prior): O(keyframe points) under the caller's lock,
+    /// the fit itself outside it. `None` for the other methods.
+    pub fn warp_problem(&self) -> Option<WarpProblem> {
         const VOXEL_M: f64 = 0.1;
         let drawing = self.drawing.as_ref()?;
         let back_end = self.back_end.as_ref()?;
@@ -481,19 +494,19 @@ impl Mapper {
         for (pose, points) in closer.poses().iter().zip(closer.keyframe_points()) {
             walls.extend(points.iter().map(|p| pose.transform_point(p)));
         }
-        let walls = voxel_filter(&walls, VOXEL_M);
         let start = drawing.start;
-        let prior = Similarity::new(
-            1.0 / start.meters_per_pixel,
-            0.0,
-            Point2::new(start.u_px, -start.v_px),
-        );
-        fit_warp(
-            &walls,
-            &drawing.sketch.lines,
-            prior,
-            &self.config.registration,
-        )
+        Some(WarpProblem {
+            walls: voxel_filter(&walls, VOXEL_M),
+            lines: drawing.sketch.lines.clone(),
+            prior: Similarity::new(
+                1.0 / start.meters_per_pixel,
+                0.0,
+                Point2::new(start.u_px, -start.v_px),
+            ),
+            config: self.config.registration,
+            keyframes: closer.poses().len(),
+            map_revision: self.map_revision,
+        })
     }
 
     /// `sketch` sessions: the drawing the session maps with.

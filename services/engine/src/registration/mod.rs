@@ -8,12 +8,17 @@
 //! apart, regularized towards the similarity, does.
 //! - [`warp`]: W itself (similarity + bilinear control-grid offsets), its Jacobian;
 //! - [`fit`]: W estimated from the map's wall points against the drawing's lines;
-//! - [`overlay`]: the map drawn over the drawing through W.
+//! - [`overlay`]: the map drawn over the drawing through W, the drawing over the map
+//!   through W⁻¹;
+//! - [`drawing_registration`]: a session's fitted W, where it holds, and the transforms
+//!   users read through it.
 
+pub mod drawing_registration;
 pub mod fit;
 pub mod overlay;
 pub mod warp;
 
+pub use drawing_registration::{DrawingRegistration, WarpProblem};
 pub use fit::{FitConfig, WarpFit, fit_warp};
-pub use overlay::render_map_on_drawing;
+pub use overlay::{render_drawing_on_map, render_map_on_drawing};
 pub use warp::{ControlGrid, Similarity, Warp};
