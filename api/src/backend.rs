@@ -10,6 +10,9 @@ use axum::body::Bytes;
 use tokio::sync::broadcast;
 
 use crate::error::ApiError;
+use crate::registration::{
+    RegistrationInfo, SketchInMapResponse, TransformRequest, TransformResponse,
+};
 use crate::types::{
     CreateSessionRequest, OccupancyGridResponse, PoseResponse, SessionEvent, SessionInfo,
     SketchInfo, SketchSummary, SketchTrajectoryResponse, TrajectoryResponse,
@@ -60,7 +63,43 @@ pub trait Backend: Send + Sync + 'static {
     /// session stops (at once for a stopped session).
     fn subscribe_events(&self, id: &str) -> Result<broadcast::Receiver<SessionEvent>, ApiError>;
 
+    /// A `sketch` session's map laid on its drawing: the warp fitted to the walls mapped so
+    /// far. `no_drawing` (422) for a session without a drawing, `not_registered` (409)
+    /// while nothing is mapped to fit.
+    fn registration(&self, id: &str) -> Result<RegistrationInfo, ApiError> {
+        Err(no_registration(id))
+    }
+    /// The map and route drawn over the drawing through the warp, as a PNG.
+    fn sketch_overlay_on_map_png(&self, id: &str) -> Result<Vec<u8>, ApiError> {
+        Err(no_registration(id))
+    }
+    /// The drawing's lines in map meters through the warp's inverse.
+    fn sketch_in_map(&self, id: &str) -> Result<SketchInMapResponse, ApiError> {
+        Err(no_registration(id))
+    }
+    /// The map with the drawing's lines drawn over it, as a PNG.
+    fn sketch_in_map_png(&self, id: &str) -> Result<Vec<u8>, ApiError> {
+        Err(no_registration(id))
+    }
+    /// Drawing pixels to map poses and back, through the warp; `request` is validated.
+    fn transform(
+        &self,
+        id: &str,
+        request: TransformRequest,
+    ) -> Result<TransformResponse, ApiError> {
+        let _ = request;
+        Err(no_registration(id))
+    }
+
     /// The backend's part of `/metrics`, Prometheus text exposition format (`# HELP`,
     /// `# TYPE` and samples, newline-terminated).
     fn metrics_text(&self) -> String;
+}
+
+/// What a backend that lays no map on a drawing answers for session `id`.
+fn no_registration(id: &str) -> ApiError {
+    ApiError::NotFound {
+        code: "no_registration",
+        message: format!("this service does not lay session {id}'s map on a drawing"),
+    }
 }

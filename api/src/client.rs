@@ -12,6 +12,9 @@ use serde::de::DeserializeOwned;
 use thiserror::Error;
 
 use crate::error::ErrorBody;
+use crate::registration::{
+    RegistrationInfo, SketchInMapResponse, TransformRequest, TransformResponse,
+};
 use crate::types::{
     CreateSessionRequest, HealthResponse, OccupancyGridResponse, PoseResponse, SessionEvent,
     SessionInfo, SessionList, SketchInfo, SketchList, SketchTrajectoryResponse, TrajectoryResponse,
@@ -256,6 +259,40 @@ impl SketchslamClient {
     /// `GET /v1/sessions/{id}/map.yaml`.
     pub async fn map_yaml(&self, id: &str) -> Result<String, ClientError> {
         Self::text(self.request(Method::GET, &format!("/v1/sessions/{}/map.yaml", seg(id)))).await
+    }
+
+    /// `GET /v1/sessions/{id}/registration`.
+    pub async fn registration(&self, id: &str) -> Result<RegistrationInfo, ClientError> {
+        let path = format!("/v1/sessions/{}/registration", seg(id));
+        Self::json(self.request(Method::GET, &path)).await
+    }
+
+    /// `GET /v1/sessions/{id}/sketch-overlay.png`.
+    pub async fn sketch_overlay_on_map_png(&self, id: &str) -> Result<Vec<u8>, ClientError> {
+        let path = format!("/v1/sessions/{}/sketch-overlay.png", seg(id));
+        Self::bytes(self.request(Method::GET, &path)).await
+    }
+
+    /// `GET /v1/sessions/{id}/sketch-in-map`.
+    pub async fn sketch_in_map(&self, id: &str) -> Result<SketchInMapResponse, ClientError> {
+        let path = format!("/v1/sessions/{}/sketch-in-map", seg(id));
+        Self::json(self.request(Method::GET, &path)).await
+    }
+
+    /// `GET /v1/sessions/{id}/sketch-in-map.png`.
+    pub async fn sketch_in_map_png(&self, id: &str) -> Result<Vec<u8>, ClientError> {
+        let path = format!("/v1/sessions/{}/sketch-in-map.png", seg(id));
+        Self::bytes(self.request(Method::GET, &path)).await
+    }
+
+    /// `POST /v1/sessions/{id}/transform`.
+    pub async fn transform(
+        &self,
+        id: &str,
+        request: &TransformRequest,
+    ) -> Result<TransformResponse, ClientError> {
+        let path = format!("/v1/sessions/{}/transform", seg(id));
+        Self::json(self.request(Method::POST, &path).json(request)).await
     }
 
     /// `GET /v1/sessions/{id}/events`: the live feed of poses and status changes.

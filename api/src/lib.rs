@@ -17,6 +17,8 @@ pub mod client;
 pub mod error;
 pub mod extract;
 pub mod openapi;
+pub mod registration;
+mod registration_routes;
 pub mod router;
 pub mod types;
 
@@ -24,5 +26,6 @@ pub use backend::Backend;
 pub use client::{ClientError, EventStream, SketchslamClient};
 pub use error::{ApiError, ErrorBody, ErrorDetail};
 pub use openapi::ApiDoc;
+pub use registration::*;
 pub use router::{DEFAULT_MAX_BODY_BYTES, HttpMetrics, RouterOptions, router};
 pub use types::*;

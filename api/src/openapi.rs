@@ -5,13 +5,17 @@ use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
 use utoipa::{Modify, OpenApi};
 
 use crate::error::{ErrorBody, ErrorDetail};
-use crate::router;
+use crate::registration::{
+    DrawingPointIn, DrawingPointOut, MapPointIn, MapPointOut, RegistrationInfo,
+    SketchInMapResponse, SketchLineInMap, TransformRequest, TransformResponse, WarpInfo,
+};
 use crate::types::{
     CreateSessionRequest, HealthResponse, MappingMethod, OccupancyGridResponse, PixelPoint,
     Pose2Info, PoseResponse, SessionEvent, SessionInfo, SessionList, SessionState, SketchInfo,
     SketchLineInfo, SketchList, SketchPoseInfo, SketchStart, SketchSummary,
     SketchTrajectoryPointInfo, SketchTrajectoryResponse, TrajectoryPointInfo, TrajectoryResponse,
 };
+use crate::{registration_routes, router};
 
 /// The sketchslam HTTP API.
 #[derive(OpenApi)]
@@ -42,13 +46,20 @@ use crate::types::{
         router::session_map_pgm,
         router::session_map_yaml,
         router::session_events,
+        registration_routes::session_registration,
+        registration_routes::session_sketch_overlay,
+        registration_routes::session_sketch_in_map,
+        registration_routes::session_sketch_in_map_png,
+        registration_routes::session_transform,
     ),
     components(schemas(
         ErrorBody, ErrorDetail, CreateSessionRequest, HealthResponse, MappingMethod,
         OccupancyGridResponse, PixelPoint, Pose2Info, PoseResponse, SessionEvent, SessionInfo,
         SessionList, SessionState, SketchInfo, SketchLineInfo, SketchList, SketchPoseInfo,
         SketchStart, SketchSummary, SketchTrajectoryPointInfo, SketchTrajectoryResponse,
-        TrajectoryPointInfo, TrajectoryResponse,
+        TrajectoryPointInfo, TrajectoryResponse, RegistrationInfo, WarpInfo, SketchInMapResponse,
+        SketchLineInMap, TransformRequest, TransformResponse, DrawingPointIn, DrawingPointOut,
+        MapPointIn, MapPointOut,
     )),
     modifiers(&BearerAuth),
     security(("bearer" = [])),

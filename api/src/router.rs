@@ -13,7 +13,7 @@ use axum::http::{HeaderMap, StatusCode, header};
 use axum::middleware::{self, Next};
 use axum::response::sse::{Event, KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
-use axum::routing::get;
+use axum::routing::{get, post};
 use axum::{Json, Router};
 use futures::{Stream, StreamExt};
 use serde::Deserialize;
@@ -24,6 +24,10 @@ use crate::backend::Backend;
 use crate::error::{ApiError, ErrorBody};
 use crate::extract::{ApiBytes, ApiJson, ApiPath, ApiQuery};
 use crate::openapi::ApiDoc;
+use crate::registration_routes::{
+    session_registration, session_sketch_in_map, session_sketch_in_map_png, session_sketch_overlay,
+    session_transform,
+};
 use crate::types::{
     CreateSessionRequest, HealthResponse, OccupancyGridResponse, PoseResponse, SessionEvent,
     SessionInfo, SessionList, SketchInfo, SketchList,
@@ -119,6 +123,20 @@ pub fn router(backend: Arc<dyn Backend>, options: RouterOptions) -> Router {
         .route("/v1/sessions/{id}/map.pgm", get(session_map_pgm))
         .route("/v1/sessions/{id}/map.yaml", get(session_map_yaml))
         .route("/v1/sessions/{id}/events", get(session_events))
+        .route("/v1/sessions/{id}/registration", get(session_registration))
+        .route(
+            "/v1/sessions/{id}/sketch-overlay.png",
+            get(session_sketch_overlay),
+        )
+        .route(
+            "/v1/sessions/{id}/sketch-in-map",
+            get(session_sketch_in_map),
+        )
+        .route(
+            "/v1/sessions/{id}/sketch-in-map.png",
+            get(session_sketch_in_map_png),
+        )
+        .route("/v1/sessions/{id}/transform", post(session_transform))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(axum::extract::DefaultBodyLimit::max(limit))
@@ -207,7 +225,7 @@ async fn method_not_allowed() -> ApiError {
 }
 
 /// Runs a backend call on the blocking pool.
-async fn call<T, F>(state: &AppState, f: F) -> Result<T, ApiError>
+pub(crate) async fn call<T, F>(state: &AppState, f: F) -> Result<T, ApiError>
 where
     T: Send + 'static,
     F: FnOnce(&dyn Backend) -> Result<T, ApiError> + Send + 'static,
@@ -218,7 +236,7 @@ where
         .map_err(|e| ApiError::internal(format!("backend task failed: {e}")))?
 }
 
-fn with_content_type(content_type: &'static str, body: impl Into<Body>) -> Response {
+pub(crate) fn with_content_type(content_type: &'static str, body: impl Into<Body>) -> Response {
     ([(header::CONTENT_TYPE, content_type)], body.into()).into_response()
 }
 
