@@ -103,7 +103,7 @@ pub fn no_drawing(session_id: &str, method: &str) -> ApiError {
         "no_drawing",
         format!(
             "session {session_id} maps with method {method:?}, without a drawing: \
-             only sketch sessions have a trajectory on the drawing"
+             only sketch sessions have a trajectory, a map or lines on a drawing"
         ),
     )
 }

@@ -17,6 +17,7 @@ pub mod config;
 pub mod intake;
 pub mod method;
 pub mod metrics;
+pub mod registration_codec;
 pub mod registry;
 pub mod session;
 pub mod storage;

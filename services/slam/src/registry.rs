@@ -11,8 +11,9 @@ use std::sync::{Arc, Mutex};
 use axum::body::Bytes;
 use sketchslam_api::{
     ApiError, Backend, CreateSessionRequest, MappingMethod, OccupancyGridResponse, PoseResponse,
-    SessionEvent, SessionInfo, SessionState, SketchInfo, SketchSummary, SketchTrajectoryResponse,
-    TrajectoryResponse,
+    RegistrationInfo, SessionEvent, SessionInfo, SessionState, SketchInMapResponse, SketchInfo,
+    SketchSummary, SketchTrajectoryResponse, TrajectoryResponse, TransformRequest,
+    TransformResponse,
 };
 use sketchslam_ipc::IpcConfig;
 use tokio::sync::broadcast;
@@ -24,6 +25,7 @@ use super::codec::{
 use super::config::RegistryConfig;
 use super::method::engine_method;
 use super::metrics::{Histogram, render_metrics};
+use super::registration_codec::{not_registered, registration_from_info, transform_response};
 use super::session::{Session, lock, now_unix_ms};
 use super::storage::{SessionMeta, SketchMeta, Storage};
 use sketchslam_engine::EngineError;
@@ -140,6 +142,24 @@ impl Registry {
         self.storage
             .read_session_file(id, name)
             .map_err(|e| ApiError::internal(format!("reading {name} of session {id}: {e}")))
+    }
+
+    /// A stopped session's registration file: `no_drawing` for a session without a drawing,
+    /// `not_registered` when it stopped before anything could be registered.
+    fn stored_registration_file(
+        &self,
+        id: &str,
+        meta: &SessionMeta,
+        name: &str,
+    ) -> Result<Vec<u8>, ApiError> {
+        if meta.info.method != MappingMethod::Sketch {
+            return Err(no_drawing(id, meta.info.method.as_str()));
+        }
+        match self.storage.read_session_file(id, name) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err(not_registered(id)),
+            other => other
+                .map_err(|e| ApiError::internal(format!("reading {name} of session {id}: {e}"))),
+        }
     }
 
     /// Stops every running session (storing its map) and refuses new ones.
@@ -439,6 +459,61 @@ impl Backend for Registry {
             Ok(s) => Ok(occupancy_response(id, &s.grid())),
             Err(_) => serde_json::from_slice(&self.stored_file(id, "map.json")?)
                 .map_err(|e| ApiError::internal(format!("map.json of session {id}: {e}"))),
+        }
+    }
+
+    fn registration(&self, id: &str) -> Result<RegistrationInfo, ApiError> {
+        match self.live(id)? {
+            Ok(s) => s.registration(),
+            Err(meta) => {
+                let json = self.stored_registration_file(id, &meta, "registration.json")?;
+                serde_json::from_slice(&json).map_err(|e| {
+                    ApiError::internal(format!("registration.json of session {id}: {e}"))
+                })
+            }
+        }
+    }
+
+    fn sketch_overlay_on_map_png(&self, id: &str) -> Result<Vec<u8>, ApiError> {
+        match self.live(id)? {
+            Ok(s) => s.sketch_overlay_png(),
+            Err(meta) => self.stored_registration_file(id, &meta, "sketch-overlay.png"),
+        }
+    }
+
+    fn sketch_in_map(&self, id: &str) -> Result<SketchInMapResponse, ApiError> {
+        match self.live(id)? {
+            Ok(s) => s.sketch_in_map(),
+            Err(meta) => {
+                let json = self.stored_registration_file(id, &meta, "sketch-in-map.json")?;
+                serde_json::from_slice(&json).map_err(|e| {
+                    ApiError::internal(format!("sketch-in-map.json of session {id}: {e}"))
+                })
+            }
+        }
+    }
+
+    fn sketch_in_map_png(&self, id: &str) -> Result<Vec<u8>, ApiError> {
+        match self.live(id)? {
+            Ok(s) => s.sketch_in_map_png(),
+            Err(meta) => self.stored_registration_file(id, &meta, "sketch-in-map.png"),
+        }
+    }
+
+    fn transform(
+        &self,
+        id: &str,
+        request: TransformRequest,
+    ) -> Result<TransformResponse, ApiError> {
+        match self.live(id)? {
+            Ok(s) => s.transform(&request),
+            Err(_) => {
+                let info = self.registration(id)?;
+                let r = registration_from_info(&info).map_err(|e| {
+                    ApiError::internal(format!("registration.json of session {id}: {e}"))
+                })?;
+                Ok(transform_response(id, &r, &request))
+            }
         }
     }
 

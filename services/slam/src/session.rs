@@ -31,9 +31,18 @@ use super::codec::{
 };
 use super::intake::{Intake, IntakeMsg};
 use super::metrics::Histogram;
-use super::storage::{SessionFiles, SessionMeta};
+use super::registration_codec::{
+    not_registered, registration_info, sketch_in_map_response, transform_response,
+};
+use super::storage::{RegistrationFiles, SessionFiles, SessionMeta};
+use sketchslam_api::{RegistrationInfo, SketchInMapResponse, TransformRequest, TransformResponse};
 use sketchslam_engine::mapper::{Mapper, Method, trajectory_csv};
 use sketchslam_engine::mapping::grid::OccupancyGrid;
+use sketchslam_engine::registration::{
+    DrawingRegistration, render_drawing_on_map, render_map_on_drawing,
+};
+use sketchslam_engine::sketch::Sketch;
+use sketchslam_engine::sketch::overlay::encode_png;
 
 /// Capacity of a session's event broadcast; a slower SSE client skips events.
 const EVENT_CAPACITY: usize = 256;
@@ -44,6 +53,10 @@ pub const IDLE_REFRESH: Duration = Duration::from_millis(50);
 /// The longest a map request waits for the mapper thread's rebuild; past it, the map as
 /// last built is served.
 pub const MAP_WAIT: Duration = Duration::from_secs(30);
+
+/// The warp onto the drawing is fitted again once the map has this many keyframes more
+/// than at the last fit (5 m of route at the default keyframe spacing), or has moved.
+pub const REFIT_KEYFRAMES: usize = 10;
 
 /// Locks a mutex even if a panicking thread poisoned it (the data is still usable).
 pub(crate) fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -93,6 +106,9 @@ pub struct Session {
     shared: Arc<SessionShared>,
     mapper: Arc<Mutex<Mapper>>,
     threads: Mutex<Option<(Intake, JoinHandle<()>)>>,
+    /// The last warp fitted onto the drawing (`sketch` sessions), reused until the map has
+    /// moved or grown by [`REFIT_KEYFRAMES`].
+    registration: Mutex<Option<Arc<DrawingRegistration>>>,
 }
 
 impl Session {
@@ -134,6 +150,7 @@ impl Session {
             shared,
             mapper,
             threads: Mutex::new(Some((intake, thread))),
+            registration: Mutex::new(None),
         })
     }
 
@@ -190,6 +207,101 @@ impl Session {
         m.grid_as_built().clone()
     }
 
+    /// The map laid on the drawing: the cached warp while the map has neither moved nor grown
+    /// by [`REFIT_KEYFRAMES`], else a new fit, copied out of the mapper under its lock and
+    /// solved outside it (off the scan path: the mapper thread goes on meanwhile). With the
+    /// drawing, for the pictures and the lines.
+    fn registered(&self) -> Result<(Arc<DrawingRegistration>, Arc<Sketch>), ApiError> {
+        let (problem, sketch) = {
+            let m = lock(&self.mapper);
+            let Some(drawing) = m.drawing() else {
+                return Err(no_drawing(&self.id, m.method().as_str()));
+            };
+            let sketch = drawing.sketch.clone();
+            let cached = lock(&self.registration).clone();
+            let fresh = |r: &Arc<DrawingRegistration>| {
+                r.map_revision == m.map_revision()
+                    && m.keyframe_count() < r.keyframes + REFIT_KEYFRAMES
+            };
+            if let Some(r) = cached.filter(fresh) {
+                return Ok((r, sketch));
+            }
+            (m.warp_problem(), sketch)
+        };
+        let fitted = problem
+            .and_then(|p| p.solve())
+            .map(Arc::new)
+            .ok_or_else(|| not_registered(&self.id))?;
+        *lock(&self.registration) = Some(fitted.clone());
+        Ok((fitted, sketch))
+    }
+
+    /// `GET /registration`.
+    pub fn registration(&self) -> Result<RegistrationInfo, ApiError> {
+        let (r, _) = self.registered()?;
+        Ok(registration_info(&self.id, &r))
+    }
+
+    /// `GET /sketch-in-map`.
+    pub fn sketch_in_map(&self) -> Result<SketchInMapResponse, ApiError> {
+        let (r, sketch) = self.registered()?;
+        Ok(sketch_in_map_response(&self.id, &r, &sketch.lines))
+    }
+
+    /// `POST /transform` (`request` validated).
+    pub fn transform(&self, request: &TransformRequest) -> Result<TransformResponse, ApiError> {
+        let (r, _) = self.registered()?;
+        Ok(transform_response(&self.id, &r, request))
+    }
+
+    /// `GET /sketch-overlay.png`: the map and the route over the drawing.
+    pub fn sketch_overlay_png(&self) -> Result<Vec<u8>, ApiError> {
+        let (r, sketch) = self.registered()?;
+        let grid = self.grid();
+        let route: Vec<_> = lock(&self.mapper)
+            .trajectory()
+            .iter()
+            .map(|t| t.pose)
+            .collect();
+        let image = render_map_on_drawing(&sketch, r.warp(), &grid.occupied_points(), &route);
+        Ok(encode_png(&image))
+    }
+
+    /// `GET /sketch-in-map.png`: the drawing's lines over the map.
+    pub fn sketch_in_map_png(&self) -> Result<Vec<u8>, ApiError> {
+        let (r, sketch) = self.registered()?;
+        let grid = self.grid();
+        Ok(encode_png(&render_drawing_on_map(
+            &grid,
+            &r.lines_in_map(&sketch.lines),
+        )))
+    }
+
+    /// What a stopped session keeps of its registration; `None` without a drawing or with
+    /// nothing registered.
+    fn registration_files(&self) -> Option<RegistrationFiles> {
+        let (r, sketch) = self.registered().ok()?;
+        let grid = self.grid();
+        let route: Vec<_> = lock(&self.mapper)
+            .trajectory()
+            .iter()
+            .map(|t| t.pose)
+            .collect();
+        let overlay = render_map_on_drawing(&sketch, r.warp(), &grid.occupied_points(), &route);
+        let lines = r.lines_in_map(&sketch.lines);
+        Some(RegistrationFiles {
+            registration_json: serde_json::to_vec(&registration_info(&self.id, &r)).ok()?,
+            sketch_overlay_png: encode_png(&overlay),
+            sketch_in_map_json: serde_json::to_vec(&sketch_in_map_response(
+                &self.id,
+                &r,
+                &sketch.lines,
+            ))
+            .ok()?,
+            sketch_in_map_png: encode_png(&render_drawing_on_map(&grid, &lines)),
+        })
+    }
+
     /// Stops the intake (it drains what arrived), lets the mapper process everything
     /// received, and returns the final status, pose and files. Idempotent.
     pub fn finish(&self) -> (SessionMeta, SessionFiles) {
@@ -229,6 +341,7 @@ impl Session {
             map_json,
             trajectory_csv: trajectory_csv(&points),
             sketch_trajectory_json: on_drawing.and_then(|t| serde_json::to_vec(&t).ok()),
+            registration: self.registration_files(),
         };
         tracing::info!(
             session = %self.id,

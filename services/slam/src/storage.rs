@@ -4,6 +4,9 @@
 //! <data-dir>/sketches/<id>/image      the uploaded bytes, as sent
 //! <data-dir>/sketches/<id>/meta.json  id, name, upload time
 //! <data-dir>/sessions/<id>/map.pgm, map.yaml, map.png, map.json, trajectory.csv
+//! <data-dir>/sessions/<id>/sketch-trajectory.json                       (sketch sessions)
+//! <data-dir>/sessions/<id>/registration.json, sketch-overlay.png,
+//!                          sketch-in-map.json, sketch-in-map.png       (once registered)
 //! <data-dir>/sessions/<id>/meta.json  final status and pose (written last)
 //! ```
 //!
@@ -52,6 +55,21 @@ pub struct SessionFiles {
     pub trajectory_csv: String,
     /// `sketch-trajectory.json` (the API's trajectory on the drawing; `sketch` sessions).
     pub sketch_trajectory_json: Option<Vec<u8>>,
+    /// The map laid on the drawing (`sketch` sessions whose map could be registered).
+    pub registration: Option<RegistrationFiles>,
+}
+
+/// The files of a stopped session's map-on-drawing registration.
+#[derive(Debug, Clone)]
+pub struct RegistrationFiles {
+    /// `registration.json` (the API's `RegistrationInfo`: the warp's parameters).
+    pub registration_json: Vec<u8>,
+    /// `sketch-overlay.png`.
+    pub sketch_overlay_png: Vec<u8>,
+    /// `sketch-in-map.json` (the API's `SketchInMapResponse`).
+    pub sketch_in_map_json: Vec<u8>,
+    /// `sketch-in-map.png`.
+    pub sketch_in_map_png: Vec<u8>,
 }
 
 /// The data dir.
@@ -165,6 +183,12 @@ impl Storage {
         write_atomic(&dir.join("trajectory.csv"), files.trajectory_csv.as_bytes())?;
         if let Some(json) = &files.sketch_trajectory_json {
             write_atomic(&dir.join("sketch-trajectory.json"), json)?;
+        }
+        if let Some(r) = &files.registration {
+            write_atomic(&dir.join("registration.json"), &r.registration_json)?;
+            write_atomic(&dir.join("sketch-overlay.png"), &r.sketch_overlay_png)?;
+            write_atomic(&dir.join("sketch-in-map.json"), &r.sketch_in_map_json)?;
+            write_atomic(&dir.join("sketch-in-map.png"), &r.sketch_in_map_png)?;
         }
         let json = serde_json::to_vec_pretty(meta).map_err(io::Error::other)?;
         write_atomic(&dir.join("meta.json"), &json)
