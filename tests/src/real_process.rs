@@ -12,12 +12,17 @@ use crate::metrics::WallGrid;
 use crate::processes::{ChildGuard, binary, unique_prefix};
 use crate::run::ONLINE_TRAJECTORY_FILE;
 use crate::run::{RunResult, Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
-use crate::run_loop::{RunFigures, mcl_poses};
+use crate::run_loop::{
+    RunFigures, SKETCH_IN_MAP_FILE, SKETCH_OVERLAY_FILE, mcl_poses, write_warp_trajectory,
+};
 use crate::service_process::{ServiceOptions, ServiceProcess};
 use crate::session_request::{baseline_session, sketch_session};
-use crate::sketch_truth::fill_sketch_pose_scores;
+use crate::sketch_truth::{fill_sketch_pose_scores, score_published_poses};
 use anyhow::{Context, Result, bail};
-use sketchslam_api::{SessionEvent, SketchPoseInfo};
+use sketchslam_api::{
+    ClientError, MAX_TRANSFORM_POINTS, MapPointIn, SessionEvent, SketchPoseInfo, SketchslamClient,
+    TransformRequest,
+};
 use sketchslam_engine::mapper::Method;
 use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
@@ -84,6 +89,13 @@ pub fn run_real_process(
             &truth.poses,
             &mapped.published_sketch_poses,
         )?;
+        if let Some(score) =
+            score_published_poses(&scenario.dir, &cfg.name, &truth.poses, &mapped.warp_poses)?
+        {
+            result.warp_pose_median_m = Some(score.median_m);
+            result.warp_pose_p95_m = Some(score.p95_m);
+            result.warp_pose_within_1m = Some(score.within_1m);
+        }
     }
     Ok(result)
 }
@@ -111,6 +123,9 @@ pub struct ProcessRun {
     /// `sketch` sessions: the session's pose on the drawing at each scan (its trajectory on
     /// the drawing, `GET …/trajectory?frame=sketch`, the points MCL gave), stamp in seconds.
     pub published_sketch_poses: Vec<(f64, SketchPose)>,
+    /// `sketch` sessions: the final trajectory on the drawing through the session's warp
+    /// (`POST …/transform`), stamp in seconds.
+    pub warp_poses: Vec<(f64, SketchPose)>,
 }
 
 impl ProcessRun {
@@ -247,11 +262,12 @@ pub fn map_through_processes(
         out_dir.join(ONLINE_TRAJECTORY_FILE),
         trajectory_csv::write(&published_poses, NumberFormat::Fixed),
     )?;
-    let mut published_sketch_poses = Vec::new();
+    let (mut published_sketch_poses, mut warp_poses) = (Vec::new(), Vec::new());
     if method == Method::Sketch {
         let on_drawing = runtime.block_on(client.sketch_trajectory(&session.id))?;
         std::fs::write(out_dir.join("sketch-trajectory.csv"), on_drawing.to_csv())?;
         published_sketch_poses = mcl_poses(&on_drawing);
+        warp_poses = fetch_registration(&runtime, &client, &session.id, out_dir)?;
     }
     std::fs::write(
         out_dir.join("map.pgm"),
@@ -276,5 +292,64 @@ pub fn map_through_processes(
         },
         final_pose,
         published_sketch_poses,
+        warp_poses,
     })
+}
+
+/// A `sketch` session's map laid on its drawing, over HTTP: the final trajectory through
+/// `POST /transform` (written as `warp-trajectory.csv` and returned, stamp in seconds), and
+/// `sketch-overlay.png`, `sketch-in-map.png`. Nothing (and no error) while the session has
+/// nothing registered (409).
+fn fetch_registration(
+    runtime: &tokio::runtime::Runtime,
+    client: &SketchslamClient,
+    session_id: &str,
+    out_dir: &Path,
+) -> Result<Vec<(f64, SketchPose)>> {
+    let trajectory = runtime.block_on(client.trajectory(session_id))?;
+    // In batches the endpoint takes.
+    let mut to_drawing = Vec::with_capacity(trajectory.points.len());
+    for chunk in trajectory.points.chunks(MAX_TRANSFORM_POINTS) {
+        let request = TransformRequest {
+            to_map: vec![],
+            to_drawing: chunk
+                .iter()
+                .map(|p| MapPointIn {
+                    x_m: p.x,
+                    y_m: p.y,
+                    heading_rad: Some(p.theta),
+                })
+                .collect(),
+        };
+        match runtime.block_on(client.transform(session_id, &request)) {
+            Err(ClientError::Api { status, .. }) if status.as_u16() == 409 => {
+                return Ok(Vec::new());
+            }
+            other => to_drawing.extend(other?.to_drawing),
+        }
+    }
+    let poses: Vec<(f64, SketchPose)> = trajectory
+        .points
+        .iter()
+        .zip(&to_drawing)
+        .map(|(p, d)| {
+            let pose = SketchPose {
+                u_px: d.u_px,
+                v_px: d.v_px,
+                heading_rad: d.heading_rad.unwrap_or(f64::NAN),
+                meters_per_pixel: d.meters_per_pixel,
+            };
+            (p.t, pose)
+        })
+        .collect();
+    write_warp_trajectory(out_dir, &poses)?;
+    std::fs::write(
+        out_dir.join(SKETCH_OVERLAY_FILE),
+        runtime.block_on(client.sketch_overlay_on_map_png(session_id))?,
+    )?;
+    std::fs::write(
+        out_dir.join(SKETCH_IN_MAP_FILE),
+        runtime.block_on(client.sketch_in_map_png(session_id))?,
+    )?;
+    Ok(poses)
 }

@@ -17,7 +17,7 @@ use sketchslam_api::SketchTrajectoryResponse;
 use sketchslam_engine::mapper::{
     DrawingPoseSource, Mapper, Method, TrajectoryPoint, trajectory_csv,
 };
-use sketchslam_engine::registration::render_map_on_drawing;
+use sketchslam_engine::registration::{render_drawing_on_map, render_map_on_drawing};
 use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::SimStep;
 use sketchslam_simulator::scenario::SketchConfig;
@@ -120,33 +120,22 @@ pub fn map_in_process(
         let on_drawing = sketch_trajectory_response("in-process", mapper.drawing_trajectory());
         std::fs::write(out_dir.join("sketch-trajectory.csv"), on_drawing.to_csv())?;
         sketch_poses = mcl_poses(&on_drawing);
-        if let Some(fit) = mapper.drawing_warp() {
+        if let Some(registration) = mapper.warp_problem().and_then(|p| p.solve()) {
+            let warp = registration.warp();
             warp_poses = mapper
                 .trajectory()
                 .iter()
-                .map(|t| (t.stamp_ns as f64 * 1e-9, fit.warp.pose_on_drawing(&t.pose)))
+                .map(|t| (t.stamp_ns as f64 * 1e-9, warp.pose_on_drawing(&t.pose)))
                 .collect();
-            let rows: Vec<DrawingRow> = warp_poses
-                .iter()
-                .map(|(t_s, p)| DrawingRow {
-                    t_s: *t_s,
-                    u_px: p.u_px,
-                    v_px: p.v_px,
-                    heading_rad: p.heading_rad,
-                    meters_per_pixel: p.meters_per_pixel,
-                })
-                .collect();
-            // The format of `sketch-trajectory.csv`, by the same writer.
-            std::fs::write(
-                out_dir.join(WARP_TRAJECTORY_FILE),
-                sketch_trajectory_csv::write(&rows),
-            )?;
+            write_warp_trajectory(out_dir, &warp_poses)?;
             if let Some(drawing) = mapper.drawing() {
+                // The service's pictures, by the same renderers (the grid refreshed above).
                 let route: Vec<_> = mapper.trajectory().iter().map(|t| t.pose).collect();
-                // Refreshed above, before the map was saved.
-                let walls = mapper.grid_as_built().occupied_points();
-                render_map_on_drawing(&drawing.sketch, &fit.warp, &walls, &route)
-                    .save(out_dir.join("map-on-drawing.png"))?;
+                let grid = mapper.grid_as_built();
+                render_map_on_drawing(&drawing.sketch, warp, &grid.occupied_points(), &route)
+                    .save(out_dir.join(SKETCH_OVERLAY_FILE))?;
+                render_drawing_on_map(grid, &registration.lines_in_map(&drawing.sketch.lines))
+                    .save(out_dir.join(SKETCH_IN_MAP_FILE))?;
             }
         }
     }
@@ -160,9 +149,34 @@ pub fn map_in_process(
     })
 }
 
-/// The final trajectory on the drawing through the fitted warp, written by in-process
-/// `sketch` runs.
+/// The final trajectory on the drawing through the fitted warp, written by `sketch` runs.
 pub const WARP_TRAJECTORY_FILE: &str = "warp-trajectory.csv";
+/// The map and route over the drawing through the warp (the service's
+/// `sketch-overlay.png`), written by `sketch` runs.
+pub const SKETCH_OVERLAY_FILE: &str = "sketch-overlay.png";
+/// The drawing's lines over the map through the warp's inverse (the service's
+/// `sketch-in-map.png`), written by `sketch` runs.
+pub const SKETCH_IN_MAP_FILE: &str = "sketch-in-map.png";
+
+/// Writes poses on the drawing (stamp in seconds) as [`WARP_TRAJECTORY_FILE`], in the format
+/// of `sketch-trajectory.csv` by the same writer.
+pub fn write_warp_trajectory(out_dir: &Path, poses: &[(f64, SketchPose)]) -> Result<()> {
+    let rows: Vec<DrawingRow> = poses
+        .iter()
+        .map(|(t_s, p)| DrawingRow {
+            t_s: *t_s,
+            u_px: p.u_px,
+            v_px: p.v_px,
+            heading_rad: p.heading_rad,
+            meters_per_pixel: p.meters_per_pixel,
+        })
+        .collect();
+    std::fs::write(
+        out_dir.join(WARP_TRAJECTORY_FILE),
+        sketch_trajectory_csv::write(&rows),
+    )?;
+    Ok(())
+}
 
 /// The poses MCL gave on the drawing (one per scan) of a trajectory on the drawing, stamp in
 /// seconds: what the scoring of the pose on the drawing compares with the truth, in both

@@ -170,6 +170,13 @@ async fn run(data: &std::path::Path) -> Result<()> {
         .json(api.req(Method::POST, "/v1/sessions").json(&good_session))
         .await?;
     let session_id = session["id"].as_str().context("session id")?.to_string();
+    let odometry = api
+        .json(
+            api.req(Method::POST, "/v1/sessions")
+                .json(&json!({"robot_id": "r-odometry", "method": "odometry"})),
+        )
+        .await?;
+    let odometry_id = odometry["id"].as_str().context("session id")?.to_string();
     let sketches_before = api.json(api.req(Method::GET, "/v1/sketches")).await?;
     let sessions_before = api.json(api.req(Method::GET, "/v1/sessions")).await?;
 
@@ -359,6 +366,89 @@ async fn run(data: &std::path::Path) -> Result<()> {
         )
         .await?;
     }
+    // The map on the drawing: nothing mapped yet (409), no drawing (422), bad batches.
+    let transform = format!("/v1/sessions/{session_id}/transform");
+    let point = json!({"u_px": 10.0, "v_px": 20.0});
+    let too_many = json!({ "to_map": vec![point.clone(); 10_001] });
+    for (what, req, statuses) in [
+        (
+            "registration before anything is mapped",
+            api.req(
+                Method::GET,
+                &format!("/v1/sessions/{session_id}/registration"),
+            ),
+            &[409][..],
+        ),
+        (
+            "overlay before anything is mapped",
+            api.req(
+                Method::GET,
+                &format!("/v1/sessions/{session_id}/sketch-overlay.png"),
+            ),
+            &[409],
+        ),
+        (
+            "transform before anything is mapped",
+            api.req(Method::POST, &transform)
+                .json(&json!({ "to_map": [point] })),
+            &[409],
+        ),
+        (
+            "registration without a drawing",
+            api.req(
+                Method::GET,
+                &format!("/v1/sessions/{odometry_id}/sketch-in-map"),
+            ),
+            &[422],
+        ),
+        (
+            "transform, malformed JSON",
+            api.req(Method::POST, &transform)
+                .header("content-type", "application/json")
+                .body("{\"to_map\": ["),
+            &[400],
+        ),
+        (
+            "transform, empty batch",
+            api.req(Method::POST, &transform).json(&json!({})),
+            &[422],
+        ),
+        (
+            "transform, a coordinate that is a string",
+            api.req(Method::POST, &transform)
+                .json(&json!({"to_map": [{"u_px": "ten", "v_px": 2}]})),
+            &[400, 422],
+        ),
+        (
+            "transform, an unknown field",
+            api.req(Method::POST, &transform)
+                .json(&json!({"to_map": [], "frame": "map"})),
+            &[400, 422],
+        ),
+        (
+            "transform, an absurd coordinate",
+            api.req(Method::POST, &transform)
+                .json(&json!({"to_drawing": [{"x_m": 1e300, "y_m": 0}]})),
+            &[422],
+        ),
+        (
+            "transform, too many points",
+            api.req(Method::POST, &transform).json(&too_many),
+            &[413],
+        ),
+        (
+            "transform of an unknown session",
+            api.req(
+                Method::POST,
+                "/v1/sessions/00000000-0000-0000-0000-000000000000/transform",
+            )
+            .json(&json!({ "to_map": [point] })),
+            &[404],
+        ),
+    ] {
+        api.expect(what, req, statuses).await?;
+    }
+
     // Unknown ids.
     let nope = "00000000-0000-0000-0000-000000000000";
     for (what, method, path) in [

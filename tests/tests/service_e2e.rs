@@ -2,7 +2,7 @@
 //! HTTP, a session started on it, the simulator publishing lock-step over iceoryx2, the pose
 //! and the map fetched back over HTTP, the map scored against the truth (within 0.3 m), and
 //! the service stopped with SIGTERM — after which a new service on the same data dir still
-//! lists the sketch and serves the stopped session.
+//! lists the sketch and serves the stopped session, its map laid on the drawing included.
 //!
 //! Each run has its own iceoryx2 prefix, data dir and port; children are killed on drop.
 
@@ -13,13 +13,17 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, ensure};
 use common::{TempDir, dump_log, start_service};
-use sketchslam_api::SessionState;
+use sketchslam_api::{
+    DrawingPointIn, MapPointIn, RegistrationInfo, SessionState, TransformRequest, TransformResponse,
+};
+use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::scenario::Scenario;
 use sketchslam_simulator::world::World;
 use sketchslam_tests::metrics::WallGrid;
 use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario, unique_prefix};
 use sketchslam_tests::run::{Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
 use sketchslam_tests::session_request::sketch_session;
+use sketchslam_tests::sketch_truth::score_published_poses;
 
 /// Scans the simulator publishes: about 30 s of driving, the first corridor and a turn.
 const SCANS: u64 = 600;
@@ -128,8 +132,13 @@ async fn map_paper_env1(dir: &TempDir) -> Result<()> {
         .context("a sketch session has a pose on the sketch")?;
     ensure!(on_sketch.meters_per_pixel > 0.0);
 
+    let (registration, pixels, to_map) =
+        check_registration(&client, &session.id, &sketch, &scenario, &truth_csv).await?;
+
     let stopped = client.stop_session(&session.id).await?;
     ensure!(stopped.state == SessionState::Stopped);
+    // Stopped, the session keeps its map laid on the drawing.
+    ensure!(client.registration(&session.id).await? == registration);
     // The map and trajectory come back over HTTP; score them against the truth.
     let out = dir.0.join("run");
     std::fs::create_dir_all(&out)?;
@@ -185,5 +194,140 @@ async fn map_paper_env1(dir: &TempDir) -> Result<()> {
             .await?
             .starts_with(b"\x89PNG")
     );
+    // The warp comes back from the data dir after a restart: the same parameters, the same
+    // transforms.
+    ensure!(again.client.registration(&session.id).await? == registration);
+    ensure!(again.client.transform(&session.id, &pixels).await?.to_map == to_map.to_map);
     Ok(())
+}
+
+/// The map laid on sketch A over HTTP: the trajectory carried onto the drawing through the
+/// warp lands near the truth (scored by the scenario's `sketch-truth.toml`, which the service
+/// never sees), drawing pixels go to the map and back within a pixel, and the pictures and
+/// the drawing's lines in the map are served. Returns the registration, a request of pixels
+/// and its answer, to compare after a restart.
+async fn check_registration(
+    client: &sketchslam_api::SketchslamClient,
+    session_id: &str,
+    sketch: &sketchslam_api::SketchInfo,
+    scenario: &Scenario,
+    truth_csv: &std::path::Path,
+) -> Result<(RegistrationInfo, TransformRequest, TransformResponse)> {
+    let registration = client.registration(session_id).await?;
+    ensure!(
+        registration.inliers > 100 && registration.keyframes > 10,
+        "{} inliers over {} keyframes",
+        registration.inliers,
+        registration.keyframes
+    );
+    let trajectory = client.trajectory(session_id).await?;
+    let request = TransformRequest {
+        to_map: vec![],
+        to_drawing: trajectory
+            .points
+            .iter()
+            .map(|p| MapPointIn {
+                x_m: p.x,
+                y_m: p.y,
+                heading_rad: Some(p.theta),
+            })
+            .collect(),
+    };
+    let on_drawing = client.transform(session_id, &request).await?;
+    ensure!(on_drawing.to_drawing.len() == trajectory.points.len());
+    let published: Vec<(f64, SketchPose)> = trajectory
+        .points
+        .iter()
+        .zip(&on_drawing.to_drawing)
+        .map(|(p, d)| {
+            let pose = SketchPose {
+                u_px: d.u_px,
+                v_px: d.v_px,
+                heading_rad: d.heading_rad.unwrap_or(f64::NAN),
+                meters_per_pixel: d.meters_per_pixel,
+            };
+            (p.t, pose)
+        })
+        .collect();
+    let truth = read_trajectory_csv(truth_csv)?;
+    let score = score_published_poses(&scenario.dir, "A", &truth, &published)?
+        .context("paper-env1 says how sketch A was drawn")?;
+    eprintln!(
+        "service e2e: pose on the drawing through the warp: median {:.2} m, {:.0} % within 1 m",
+        score.median_m,
+        100.0 * score.within_1m
+    );
+    // The whole run measures 0.71 m (README); this one is 30 s of it.
+    ensure!(score.median_m < 1.5, "median {:.2} m", score.median_m);
+    let registered = on_drawing
+        .to_drawing
+        .iter()
+        .filter(|d| d.registered)
+        .count();
+    ensure!(
+        2 * registered > on_drawing.to_drawing.len(),
+        "the warp holds at {registered} of {} poses",
+        on_drawing.to_drawing.len()
+    );
+
+    // Every 20th pose's pixel to the map and back.
+    let pixels: Vec<DrawingPointIn> = on_drawing
+        .to_drawing
+        .iter()
+        .step_by(20)
+        .map(|d| DrawingPointIn {
+            u_px: d.u_px,
+            v_px: d.v_px,
+            heading_rad: d.heading_rad,
+        })
+        .collect();
+    let pixels = TransformRequest {
+        to_map: pixels,
+        to_drawing: vec![],
+    };
+    let there = client.transform(session_id, &pixels).await?;
+    let back = client
+        .transform(session_id, &round_trip_request(&there))
+        .await?;
+    ensure!(back.to_drawing.len() == pixels.to_map.len());
+    for (a, b) in pixels.to_map.iter().zip(&back.to_drawing) {
+        let off_px = (a.u_px - b.u_px).hypot(a.v_px - b.v_px);
+        ensure!(
+            off_px < 1.0,
+            "({}, {}) came back {off_px:.3} px off",
+            a.u_px,
+            a.v_px
+        );
+    }
+
+    let overlay = image::load_from_memory(&client.sketch_overlay_on_map_png(session_id).await?)?;
+    ensure!((overlay.width(), overlay.height()) == (sketch.width_px, sketch.height_px));
+    let in_map = client.sketch_in_map(session_id).await?;
+    ensure!(in_map.lines.len() == sketch.lines.len());
+    ensure!(
+        in_map
+            .lines
+            .iter()
+            .any(|l| l.registered && l.points_m.len() >= 2)
+    );
+    let picture = client.sketch_in_map_png(session_id).await?;
+    ensure!(picture.starts_with(b"\x89PNG"));
+    Ok((registration, pixels, there))
+}
+
+/// The map points of a transform's `to_map` answers, to carry back onto the drawing.
+fn round_trip_request(there: &TransformResponse) -> TransformRequest {
+    TransformRequest {
+        to_map: vec![],
+        to_drawing: there
+            .to_map
+            .iter()
+            .flatten()
+            .map(|p| MapPointIn {
+                x_m: p.x_m,
+                y_m: p.y_m,
+                heading_rad: p.heading_rad,
+            })
+            .collect(),
+    }
 }

@@ -540,7 +540,7 @@ fn print_table(results: &[RunResult]) {
              drw≤1m: % of scans within 1 m of it (truth carried onto the drawing by \
              sketch-truth.toml; through the processes, the session's trajectory on the drawing); \
              W med, W≤1m: the same for the final trajectory carried onto the drawing through the \
-             warp fitted to the final map (in-process)"
+             warp fitted to the final map (through the processes, by the session's POST …/transform)"
         );
     }
 }
