@@ -60,7 +60,7 @@ use crate::EngineError;
 use crate::back_end::heading_prior::WallHeadingPrior;
 use crate::back_end::loop_closure::LoopCloser;
 use crate::mapping::grid::OccupancyGrid;
-use crate::registration::{Similarity, WarpFit, WarpProblem};
+use crate::registration::{DrawingRegistration, Similarity, WarpFit, WarpProblem};
 use crate::scan_matching::correlative::voxel_filter;
 use crate::scan_matching::odometry_noise::OdometryPath;
 use crate::sketch::SketchPose;
@@ -530,6 +530,35 @@ impl Mapper {
         &self.drawing_trajectory
     }
 
+    /// The trajectory on the drawing with the warp where it holds: at every stamp of
+    /// [`Mapper::drawing_trajectory`] whose map pose (the trajectory's at the same stamp)
+    /// lies where `registration` is held by mapped walls, W's pose (source
+    /// [`DrawingPoseSource::Warp`]); MCL's elsewhere. O(trajectory).
+    pub fn drawing_trajectory_through(
+        &self,
+        registration: &DrawingRegistration,
+    ) -> Vec<DrawingPoint> {
+        let mut map = self.trajectory.iter().peekable();
+        self.drawing_trajectory
+            .iter()
+            .map(|d| {
+                // Both are in stamp order: advance the map poses to this stamp.
+                while map.next_if(|t| t.stamp_ns < d.stamp_ns).is_some() {}
+                match map.peek() {
+                    Some(t) if t.stamp_ns == d.stamp_ns => match registration.to_drawing(&t.pose) {
+                        (pose, true) => DrawingPoint {
+                            stamp_ns: d.stamp_ns,
+                            pose,
+                            source: DrawingPoseSource::Warp,
+                        },
+                        _ => *d,
+                    },
+                    _ => *d,
+                }
+            })
+            .collect()
+    }
+
     /// Corrections of the back end so far (0 without loop closure): a map or a reference
     /// taken at an older revision is out of date.
     pub fn map_revision(&self) -> u64 {
@@ -848,6 +877,31 @@ mod tests {
         // The baselines have no drawing.
         let (icp, _) = drive_laps(Method::Icp, MapperConfig::default(), |_, _| {});
         assert!(icp.drawing_trajectory().is_empty());
+    }
+
+    #[test]
+    fn where_the_warp_holds_the_trajectory_on_the_drawing_is_the_warps() {
+        let (m, _) = drive_laps(Method::Sketch, MapperConfig::default(), |_, _| {});
+        let registration = m.warp_problem().and_then(|p| p.solve()).unwrap();
+        let through = m.drawing_trajectory_through(&registration);
+        assert_eq!(through.len(), m.drawing_trajectory().len());
+        let mut warped = 0;
+        for ((d, t), mcl) in through
+            .iter()
+            .zip(m.trajectory())
+            .zip(m.drawing_trajectory())
+        {
+            assert_eq!((d.stamp_ns, t.stamp_ns), (mcl.stamp_ns, mcl.stamp_ns));
+            let (on, holds) = registration.to_drawing(&t.pose);
+            if holds {
+                warped += 1;
+                assert_eq!((d.source, d.pose), (DrawingPoseSource::Warp, on));
+            } else {
+                assert_eq!(d, mcl);
+            }
+        }
+        // The room's walls are mapped all round: W holds along the whole route.
+        assert_eq!(warped, through.len());
     }
 
     #[test]

@@ -54,6 +54,9 @@ pub enum DrawingPoseSource {
     Mcl,
     /// MCL's estimate at the last scan carried forward by the odometry since (between scans).
     Odometry,
+    /// The map pose carried onto the drawing through the warp fitted to the map
+    /// ([`crate::registration`]), where the mapped walls hold it.
+    Warp,
 }
 
 impl DrawingPoseSource {
@@ -62,6 +65,7 @@ impl DrawingPoseSource {
         match self {
             DrawingPoseSource::Mcl => "mcl",
             DrawingPoseSource::Odometry => "odometry",
+            DrawingPoseSource::Warp => "warp",
         }
     }
 }
