@@ -12,7 +12,7 @@ use crate::registration::{
 use crate::types::{
     CreateSessionRequest, HealthResponse, MappingMethod, OccupancyGridResponse, PixelPoint,
     Pose2Info, PoseResponse, SessionEvent, SessionInfo, SessionList, SessionState, SketchInfo,
-    SketchLineInfo, SketchList, SketchPoseInfo, SketchStart, SketchSummary,
+    SketchLineInfo, SketchList, SketchPoseInfo, SketchPoseSource, SketchStart, SketchSummary,
     SketchTrajectoryPointInfo, SketchTrajectoryResponse, TrajectoryPointInfo, TrajectoryResponse,
 };
 use crate::{registration_routes, router};
@@ -56,6 +56,7 @@ use crate::{registration_routes, router};
         ErrorBody, ErrorDetail, CreateSessionRequest, HealthResponse, MappingMethod,
         OccupancyGridResponse, PixelPoint, Pose2Info, PoseResponse, SessionEvent, SessionInfo,
         SessionList, SessionState, SketchInfo, SketchLineInfo, SketchList, SketchPoseInfo,
+        SketchPoseSource,
         SketchStart, SketchSummary, SketchTrajectoryPointInfo, SketchTrajectoryResponse,
         TrajectoryPointInfo, TrajectoryResponse, RegistrationInfo, WarpInfo, SketchInMapResponse,
         SketchLineInMap, TransformRequest, TransformResponse, DrawingPointIn, DrawingPointOut,

@@ -313,6 +313,23 @@ pub struct SketchPoseInfo {
     pub heading_deg: f64,
     /// Estimated scale around the robot, meters per pixel.
     pub meters_per_pixel: f64,
+    /// What gave it: `warp` (the map pose through the warp fitted to the map, where the
+    /// mapped walls hold it) or `mcl` (localization on the drawing); absent in sessions
+    /// stored before the field existed.
+    #[serde(default)]
+    pub source: Option<SketchPoseSource>,
+}
+
+/// What gave a pose on the drawing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum SketchPoseSource {
+    /// The map pose through the warp fitted to the map, where the mapped walls hold it.
+    Warp,
+    /// Localization on the drawing (MCL), at a scan.
+    Mcl,
+    /// MCL's last estimate carried forward by the odometry.
+    Odometry,
 }
 
 /// `GET /v1/sessions/{id}/pose`: the latest pose estimate.
@@ -354,8 +371,9 @@ pub struct SketchTrajectoryPointInfo {
     pub heading: f64,
     /// The drawing's estimated scale there, meters per pixel.
     pub meters_per_pixel: f64,
-    /// What gave the pose: `mcl` (localization on the drawing, at a scan) or `odometry`
-    /// (MCL's last estimate carried forward between scans).
+    /// What gave the pose: `warp` (the map pose through the warp fitted to the map, where
+    /// the mapped walls hold it), `mcl` (localization on the drawing, at a scan) or
+    /// `odometry` (MCL's last estimate carried forward between scans).
     #[schema(example = "mcl")]
     pub source: String,
 }

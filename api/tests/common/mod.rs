@@ -200,6 +200,7 @@ impl Backend for Fake {
                 v: 320.3,
                 heading_deg: 1.1,
                 meters_per_pixel: 0.1,
+                source: Some(SketchPoseSource::Mcl),
             }),
             map_id: id.to_string(),
             position_initialized: true,

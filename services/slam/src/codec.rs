@@ -6,8 +6,8 @@
 
 use sketchslam_api::{
     ApiError, OccupancyGridResponse, PixelPoint, Pose2Info, PoseResponse, SketchInfo,
-    SketchLineInfo, SketchPoseInfo, SketchTrajectoryPointInfo, SketchTrajectoryResponse,
-    TrajectoryPointInfo, TrajectoryResponse,
+    SketchLineInfo, SketchPoseInfo, SketchPoseSource, SketchTrajectoryPointInfo,
+    SketchTrajectoryResponse, TrajectoryPointInfo, TrajectoryResponse,
 };
 use sketchslam_engine::EngineError;
 use sketchslam_engine::mapper::{DrawingPoint, Health, PoseEstimate, TrajectoryPoint};
@@ -31,6 +31,7 @@ pub fn pose_response(session_id: &str, pose: &PoseEstimate, health: &Health) -> 
             v: s.v_px,
             heading_deg: s.heading_rad.to_degrees(),
             meters_per_pixel: s.meters_per_pixel,
+            source: Some(SketchPoseSource::Mcl),
         }),
         map_id: session_id.to_string(),
         position_initialized: initialized,

@@ -21,6 +21,7 @@ pub mod registration_codec;
 pub mod registry;
 pub mod session;
 pub mod storage;
+pub mod warp_cache;
 
 use std::future::Future;
 use std::net::SocketAddr;

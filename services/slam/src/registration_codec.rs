@@ -6,8 +6,9 @@
 //! `sketchslam_api::registration`; pure conversions.
 
 use sketchslam_api::{
-    ApiError, DrawingPointOut, MapPointOut, RegistrationInfo, SketchInMapResponse, SketchLineInMap,
-    TransformRequest, TransformResponse, WarpInfo,
+    ApiError, DrawingPointOut, MapPointOut, PoseResponse, RegistrationInfo, SketchInMapResponse,
+    SketchLineInMap, SketchPoseInfo, SketchPoseSource, TransformRequest, TransformResponse,
+    WarpInfo,
 };
 use sketchslam_engine::registration::drawing_registration::MIN_SUPPORT_POINTS;
 use sketchslam_engine::registration::{
@@ -25,6 +26,21 @@ pub fn not_registered(session_id: &str) -> ApiError {
              drawing; ask again once the robot has moved"
         ),
     )
+}
+
+/// The pose on the drawing of `response` taken from the warp where the mapped walls hold it
+/// at the map pose `map` (source `warp`); MCL's is kept elsewhere.
+pub fn pose_through_warp(response: &mut PoseResponse, r: &DrawingRegistration, map: &Pose2) {
+    let (on, holds) = r.to_drawing(map);
+    if holds && on.u_px.is_finite() && on.v_px.is_finite() {
+        response.sketch = Some(SketchPoseInfo {
+            u: on.u_px,
+            v: on.v_px,
+            heading_deg: on.heading_rad.to_degrees(),
+            meters_per_pixel: on.meters_per_pixel,
+            source: Some(SketchPoseSource::Warp),
+        });
+    }
 }
 
 /// The registration as the API describes it.

@@ -32,9 +32,11 @@ use super::codec::{
 use super::intake::{Intake, IntakeMsg};
 use super::metrics::Histogram;
 use super::registration_codec::{
-    not_registered, registration_info, sketch_in_map_response, transform_response,
+    not_registered, pose_through_warp, registration_info, sketch_in_map_response,
+    transform_response,
 };
 use super::storage::{RegistrationFiles, SessionFiles, SessionMeta};
+use super::warp_cache::{WarpCache, spawn_worker};
 use sketchslam_api::{RegistrationInfo, SketchInMapResponse, TransformRequest, TransformResponse};
 use sketchslam_engine::mapper::{Mapper, Method, trajectory_csv};
 use sketchslam_engine::mapping::grid::OccupancyGrid;
@@ -53,10 +55,6 @@ pub const IDLE_REFRESH: Duration = Duration::from_millis(50);
 /// The longest a map request waits for the mapper thread's rebuild; past it, the map as
 /// last built is served.
 pub const MAP_WAIT: Duration = Duration::from_secs(30);
-
-/// The warp onto the drawing is fitted again once the map has this many keyframes more
-/// than at the last fit (5 m of route at the default keyframe spacing), or has moved.
-pub const REFIT_KEYFRAMES: usize = 10;
 
 /// Locks a mutex even if a panicking thread poisoned it (the data is still usable).
 pub(crate) fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -87,6 +85,8 @@ pub struct SessionShared {
     mapping: AtomicBool,
     /// Notified (with the mapper's mutex) when the map was rebuilt or the thread ended.
     map_rebuilt: Condvar,
+    /// The warp onto the drawing, read for each live pose.
+    warp: Arc<WarpCache>,
 }
 
 impl SessionShared {
@@ -106,9 +106,10 @@ pub struct Session {
     shared: Arc<SessionShared>,
     mapper: Arc<Mutex<Mapper>>,
     threads: Mutex<Option<(Intake, JoinHandle<()>)>>,
-    /// The last warp fitted onto the drawing (`sketch` sessions), reused until the map has
-    /// moved or grown by [`REFIT_KEYFRAMES`].
-    registration: Mutex<Option<Arc<DrawingRegistration>>>,
+    /// The warp onto the drawing (`sketch` sessions), kept fresh by its worker thread.
+    warp: Arc<WarpCache>,
+    /// The warp worker and the flag that stops it.
+    warp_worker: Mutex<Option<(Arc<AtomicBool>, JoinHandle<()>)>>,
 }
 
 impl Session {
@@ -130,6 +131,7 @@ impl Session {
             map_wanted: AtomicBool::new(false),
             mapping: AtomicBool::new(true),
             map_rebuilt: Condvar::new(),
+            warp: Arc::new(WarpCache::default()),
         });
         let mapper = Arc::new(Mutex::new(mapper));
         let (intake, rx) = Intake::start(ipc, &robot_id).map_err(|e| {
@@ -143,6 +145,15 @@ impl Session {
                 .spawn(move || run_mapper(rx, mapper, shared, histogram))
                 .map_err(|e| ApiError::internal(format!("cannot spawn the mapper thread: {e}")))?
         };
+        let warp = shared.warp.clone();
+        let warp_worker = if lock(&mapper).drawing().is_some() {
+            let stop = Arc::new(AtomicBool::new(false));
+            let worker = spawn_worker(&robot_id, mapper.clone(), warp.clone(), stop.clone())
+                .map_err(|e| ApiError::internal(format!("cannot spawn the warp worker: {e}")))?;
+            Some((stop, worker))
+        } else {
+            None
+        };
         tracing::info!(session = %id, robot = %robot_id, "session started");
         Ok(Session {
             id,
@@ -150,7 +161,8 @@ impl Session {
             shared,
             mapper,
             threads: Mutex::new(Some((intake, thread))),
-            registration: Mutex::new(None),
+            warp,
+            warp_worker: Mutex::new(warp_worker),
         })
     }
 
@@ -182,11 +194,15 @@ impl Session {
 
     /// The trajectory on the drawing so far (`sketch` sessions; an error for the others).
     pub fn sketch_trajectory(&self) -> Result<SketchTrajectoryResponse, ApiError> {
+        let warp = self.warp.current();
         let m = lock(&self.mapper);
         if m.method() != Method::Sketch {
             return Err(no_drawing(&self.id, m.method().as_str()));
         }
-        Ok(sketch_trajectory_response(&self.id, m.drawing_trajectory()))
+        Ok(match warp {
+            Some(r) => sketch_trajectory_response(&self.id, &m.drawing_trajectory_through(&r)),
+            None => sketch_trajectory_response(&self.id, m.drawing_trajectory()),
+        })
     }
 
     /// A copy of the map so far (rendering happens outside the mapper's lock). After a
@@ -207,32 +223,19 @@ impl Session {
         m.grid_as_built().clone()
     }
 
-    /// The map laid on the drawing: the cached warp while the map has neither moved nor grown
-    /// by [`REFIT_KEYFRAMES`], else a new fit, copied out of the mapper under its lock and
-    /// solved outside it (off the scan path: the mapper thread goes on meanwhile). With the
-    /// drawing, for the pictures and the lines.
+    /// The map laid on the drawing ([`WarpCache::fresh`]), with the drawing.
     fn registered(&self) -> Result<(Arc<DrawingRegistration>, Arc<Sketch>), ApiError> {
-        let (problem, sketch) = {
+        let sketch = {
             let m = lock(&self.mapper);
-            let Some(drawing) = m.drawing() else {
-                return Err(no_drawing(&self.id, m.method().as_str()));
-            };
-            let sketch = drawing.sketch.clone();
-            let cached = lock(&self.registration).clone();
-            let fresh = |r: &Arc<DrawingRegistration>| {
-                r.map_revision == m.map_revision()
-                    && m.keyframe_count() < r.keyframes + REFIT_KEYFRAMES
-            };
-            if let Some(r) = cached.filter(fresh) {
-                return Ok((r, sketch));
+            match m.drawing() {
+                Some(drawing) => drawing.sketch.clone(),
+                None => return Err(no_drawing(&self.id, m.method().as_str())),
             }
-            (m.warp_problem(), sketch)
         };
-        let fitted = problem
-            .and_then(|p| p.solve())
-            .map(Arc::new)
+        let fitted = self
+            .warp
+            .fresh(&self.mapper)
             .ok_or_else(|| not_registered(&self.id))?;
-        *lock(&self.registration) = Some(fitted.clone());
         Ok((fitted, sketch))
     }
 
@@ -311,15 +314,26 @@ impl Session {
                 tracing::error!(session = %self.id, "the mapper thread panicked");
             }
         }
+        self.stop_warp_worker();
+        // The final map's warp, whatever the worker fitted last.
+        let warp = self.warp.refit(&self.mapper);
         let (grid, points, pose, on_drawing) = {
             // The mapper thread rebuilt the map when the intake hung up.
             let m = lock(&self.mapper);
+            let estimate = m.pose();
+            let mut pose = pose_response(&self.id, &estimate, &m.health());
+            let on_drawing = (m.method() == Method::Sketch).then(|| match &warp {
+                Some(r) => {
+                    pose_through_warp(&mut pose, r, &estimate.map);
+                    sketch_trajectory_response(&self.id, &m.drawing_trajectory_through(r))
+                }
+                None => sketch_trajectory_response(&self.id, m.drawing_trajectory()),
+            });
             (
                 m.grid_as_built().clone(),
                 m.trajectory().to_vec(),
-                pose_response(&self.id, &m.pose(), &m.health()),
-                (m.method() == Method::Sketch)
-                    .then(|| sketch_trajectory_response(&self.id, m.drawing_trajectory())),
+                pose,
+                on_drawing,
             )
         };
         *lock(&self.shared.pose) = pose.clone();
@@ -353,12 +367,25 @@ impl Session {
     }
 }
 
+impl Session {
+    /// Stops the warp worker and waits for it (it ends within a poll and a fit).
+    fn stop_warp_worker(&self) {
+        if let Some((stop, worker)) = lock(&self.warp_worker).take() {
+            stop.store(true, Ordering::Release);
+            if worker.join().is_err() {
+                tracing::error!(session = %self.id, "the warp worker panicked");
+            }
+        }
+    }
+}
+
 impl Drop for Session {
     fn drop(&mut self) {
         if let Some((intake, thread)) = lock(&self.threads).take() {
             intake.stop();
             let _ = thread.join();
         }
+        self.stop_warp_worker();
     }
 }
 
@@ -446,7 +473,10 @@ fn run_mapper(
                 if is_scan {
                     histogram.observe(started.elapsed());
                 }
-                let response = pose_response(&session_id, &pose, &health);
+                let mut response = pose_response(&session_id, &pose, &health);
+                if let Some(r) = shared.warp.current() {
+                    pose_through_warp(&mut response, &r, &pose.map);
+                }
                 *lock(&shared.pose) = response.clone();
                 let state_changed = {
                     let mut info = lock(&shared.info);
