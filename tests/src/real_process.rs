@@ -13,7 +13,8 @@ use crate::processes::{ChildGuard, binary, unique_prefix};
 use crate::run::ONLINE_TRAJECTORY_FILE;
 use crate::run::{RunResult, Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
 use crate::run_loop::{
-    RunFigures, SKETCH_IN_MAP_FILE, SKETCH_OVERLAY_FILE, mcl_poses, write_warp_trajectory,
+    RunFigures, SKETCH_IN_MAP_FILE, SKETCH_OVERLAY_FILE, served_drawing_poses,
+    write_warp_trajectory,
 };
 use crate::service_process::{ServiceOptions, ServiceProcess};
 use crate::session_request::{baseline_session, sketch_session};
@@ -266,7 +267,7 @@ pub fn map_through_processes(
     if method == Method::Sketch {
         let on_drawing = runtime.block_on(client.sketch_trajectory(&session.id))?;
         std::fs::write(out_dir.join("sketch-trajectory.csv"), on_drawing.to_csv())?;
-        published_sketch_poses = mcl_poses(&on_drawing);
+        published_sketch_poses = served_drawing_poses(&on_drawing);
         warp_poses = fetch_registration(&runtime, &client, &session.id, out_dir)?;
     }
     std::fs::write(

@@ -38,7 +38,7 @@ pub struct InProcessRun {
     /// Engine milliseconds per scan, in scan order.
     pub scan_ms: Vec<f64>,
     /// `sketch` runs: MCL's pose on the drawing at each scan, stamp in seconds, in scan
-    /// order ([`mcl_poses`] of the mapper's trajectory on the drawing).
+    /// order ([`served_drawing_poses`] of the mapper's trajectory on the drawing).
     pub sketch_poses: Vec<(f64, SketchPose)>,
     /// `sketch` runs: every pose of the final trajectory carried onto the drawing through the
     /// warp fitted to the final map, stamp in seconds (empty when there was nothing to fit).
@@ -116,11 +116,18 @@ pub fn map_in_process(
     let mut warp_poses = Vec::new();
     if method == Method::Sketch {
         // The whole trajectory on the drawing, through the service's own codec, so the file
-        // is what `?frame=sketch&format=csv` serves.
-        let on_drawing = sketch_trajectory_response("in-process", mapper.drawing_trajectory());
+        // is what `?frame=sketch&format=csv` serves once the session stopped: the final
+        // map's warp where its walls hold it, MCL's poses elsewhere.
+        let registration = mapper.warp_problem().and_then(|p| p.solve());
+        let on_drawing = match &registration {
+            Some(r) => {
+                sketch_trajectory_response("in-process", &mapper.drawing_trajectory_through(r))
+            }
+            None => sketch_trajectory_response("in-process", mapper.drawing_trajectory()),
+        };
         std::fs::write(out_dir.join("sketch-trajectory.csv"), on_drawing.to_csv())?;
-        sketch_poses = mcl_poses(&on_drawing);
-        if let Some(registration) = mapper.warp_problem().and_then(|p| p.solve()) {
+        sketch_poses = served_drawing_poses(&on_drawing);
+        if let Some(registration) = registration {
             let warp = registration.warp();
             warp_poses = mapper
                 .trajectory()
@@ -178,14 +185,15 @@ pub fn write_warp_trajectory(out_dir: &Path, poses: &[(f64, SketchPose)]) -> Res
     Ok(())
 }
 
-/// The poses MCL gave on the drawing (one per scan) of a trajectory on the drawing, stamp in
-/// seconds: what the scoring of the pose on the drawing compares with the truth, in both
-/// modes.
-pub fn mcl_poses(on_drawing: &SketchTrajectoryResponse) -> Vec<(f64, SketchPose)> {
+/// The poses a session served on the drawing, stamp in seconds — the warp's where the
+/// mapped walls hold it, MCL's at each scan elsewhere (MCL's carried forward by odometry
+/// between scans are left out): what the scoring of the pose on the drawing compares with
+/// the truth, in both modes.
+pub fn served_drawing_poses(on_drawing: &SketchTrajectoryResponse) -> Vec<(f64, SketchPose)> {
     on_drawing
         .points
         .iter()
-        .filter(|p| p.source == DrawingPoseSource::Mcl.as_str())
+        .filter(|p| p.source != DrawingPoseSource::Odometry.as_str())
         .map(|p| {
             let pose = SketchPose {
                 u_px: p.u,

@@ -132,13 +132,16 @@ async fn map_paper_env1(dir: &TempDir) -> Result<()> {
         .context("a sketch session has a pose on the sketch")?;
     ensure!(on_sketch.meters_per_pixel > 0.0);
 
-    let (registration, pixels, to_map) =
+    let (registration, pixels, live_to_map) =
         check_registration(&client, &session.id, &sketch, &scenario, &truth_csv).await?;
 
     let stopped = client.stop_session(&session.id).await?;
     ensure!(stopped.state == SessionState::Stopped);
-    // Stopped, the session keeps its map laid on the drawing.
-    ensure!(client.registration(&session.id).await? == registration);
+    // Stopped, the session keeps its final map laid on the drawing (fitted again at the stop).
+    let registration_at_stop = client.registration(&session.id).await?;
+    ensure!(registration_at_stop.keyframes >= registration.keyframes);
+    let to_map = client.transform(&session.id, &pixels).await?;
+    ensure!(to_map.to_map.len() == live_to_map.to_map.len());
     // The map and trajectory come back over HTTP; score them against the truth.
     let out = dir.0.join("run");
     std::fs::create_dir_all(&out)?;
@@ -196,7 +199,7 @@ async fn map_paper_env1(dir: &TempDir) -> Result<()> {
     );
     // The warp comes back from the data dir after a restart: the same parameters, the same
     // transforms.
-    ensure!(again.client.registration(&session.id).await? == registration);
+    ensure!(again.client.registration(&session.id).await? == registration_at_stop);
     ensure!(again.client.transform(&session.id, &pixels).await?.to_map == to_map.to_map);
     Ok(())
 }
@@ -268,6 +271,15 @@ async fn check_registration(
         2 * registered > on_drawing.to_drawing.len(),
         "the warp holds at {registered} of {} poses",
         on_drawing.to_drawing.len()
+    );
+
+    // The session's own trajectory on the drawing takes the warp where it holds.
+    let served = client.sketch_trajectory(session_id).await?;
+    let warped = served.points.iter().filter(|p| p.source == "warp").count();
+    ensure!(
+        2 * warped > served.points.len(),
+        "{warped} of {} poses on the drawing from the warp",
+        served.points.len()
     );
 
     // Every 20th pose's pixel to the map and back.
