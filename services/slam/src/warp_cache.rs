@@ -12,10 +12,10 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use sketchslam_engine::mapper::Mapper;
-use sketchslam_engine::registration::DrawingRegistration;
+use sketchslam_engine::registration::{DrawingRegistration, WarpProblem};
 
 use super::session::lock;
 
@@ -51,14 +51,14 @@ impl WarpCache {
             }
             m.warp_problem()?
         };
-        self.store(problem.solve())
+        self.store(timed_solve(&problem))
     }
 
     /// A new fit on the map as it is now, whatever the last one (the final map of a
     /// stopping session).
     pub fn refit(&self, mapper: &Mutex<Mapper>) -> Option<Arc<DrawingRegistration>> {
         let problem = lock(mapper).warp_problem()?;
-        self.store(problem.solve())
+        self.store(timed_solve(&problem))
     }
 
     fn store(&self, fitted: Option<DrawingRegistration>) -> Option<Arc<DrawingRegistration>> {
@@ -66,6 +66,20 @@ impl WarpCache {
         *lock(&self.slot) = Some(fitted.clone());
         Some(fitted)
     }
+}
+
+/// [`WarpProblem::solve`], its time in the debug log.
+fn timed_solve(problem: &WarpProblem) -> Option<DrawingRegistration> {
+    let started = Instant::now();
+    let fitted = problem.solve();
+    tracing::debug!(
+        fit_ms = started.elapsed().as_secs_f64() * 1e3,
+        keyframes = problem.keyframes,
+        walls = problem.walls.len(),
+        inliers = fitted.as_ref().map_or(0, |r| r.fit.inliers),
+        "warp fitted"
+    );
+    fitted
 }
 
 /// The worker that keeps `cache` fresh for `mapper` until `stop` is set; a thread named
