@@ -634,10 +634,17 @@ async fn openapi_document_lists_every_route() {
         "/v1/sessions/{id}/map.pgm",
         "/v1/sessions/{id}/map.yaml",
         "/v1/sessions/{id}/events",
+        "/v1/sessions/{id}/registration",
+        "/v1/sessions/{id}/sketch-overlay.png",
+        "/v1/sessions/{id}/sketch-in-map",
+        "/v1/sessions/{id}/sketch-in-map.png",
+        "/v1/sessions/{id}/transform",
     ] {
         assert!(paths.contains_key(p), "openapi lacks {p}");
     }
     assert!(doc["components"]["schemas"]["CreateSessionRequest"].is_object());
+    assert!(doc["components"]["schemas"]["TransformRequest"].is_object());
+    assert!(paths["/v1/sessions/{id}/transform"]["post"].is_object());
 }
 
 #[tokio::test]
