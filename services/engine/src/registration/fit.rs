@@ -26,18 +26,24 @@
 //!   half the floor's extent`: how far a drawn point may lie from where the best similarity
 //!   puts it, so what a similarity explains (a turn, a scale) stays in the similarity.
 //!
-//! Gauss–Newton (the model is linear in θ; the nearest lines are found again each
-//! iteration): first the similarity alone (a few iterations, the offsets held at zero), then
+//! Started from the prior and from the best starts of a global search over the prior's
+//! range ([`super::search`]: scale, stretch of the axes, rotation, translation scored
+//! against a distance field of the drawn lines), keeping the fit with the most inliers: from
+//! the prior alone, a scale guess 30 % off settles a room over on a floor of same-size rooms.
+//! Each runs Gauss–Newton (the model is linear in θ; the nearest lines are found again each
+//! iteration): first the similarity alone (a few iterations, the offsets held at the start's), then
 //! everything on control grids refined coarse to fine (`levels`: 16, 8, 4 m at the
 //! defaults; each level starts from the last, [`Warp::resampled`]), so a floor's large
 //! proportions settle before a room's. A level's gate is what its cells cannot bend, a
 //! person's proportion error over half a cell (at least `gate_m`); the gate never widens
 //! again (widened for the deformation, it folded maps onto the nearest lines). All lengths
-//! in meters are turned into pixels at the prior's scale. Cost per iteration: O(n · L) to associate n points with L lines, O(n) to build, O(m³) to solve for
+//! in meters are turned into pixels at the prior's scale. Cost: the search's (tenths of a
+//! second), then per start and iteration O(n · L) to associate n points with L lines, O(n) to build, O(m³) to solve for
 //! m = 4 + 2 · nodes parameters (a 60 × 40 m floor at 4 m: 356).
 //!
 //! Pure: values in, values out.
 
+use super::search::search_starts;
 use super::warp::{ControlGrid, Similarity, Warp};
 use crate::scan_matching::icp::{Icp, IcpConfig};
 use crate::sketch::SketchLine;
@@ -76,6 +82,13 @@ pub struct FitConfig {
     /// to `spacing_m`, so a floor's large proportions settle before a room's (1: the fine
     /// grid alone).
     pub levels: usize,
+    /// The global start ([`super::search`]) searches this many standard deviations of the
+    /// prior's scale, rotation and translation each way (0: start from the prior).
+    pub search_sigmas: f64,
+    /// The fit runs from the prior and from this many of the search's starts (the best
+    /// with its axes scaled apart, then the best as a similarity, …) and keeps the fit with
+    /// the most inliers (0: the prior alone).
+    pub search_starts: usize,
 }
 
 impl Default for FitConfig {
@@ -93,6 +106,8 @@ impl Default for FitConfig {
             similarity_iterations: 10,
             warp_iterations: 15,
             levels: 3,
+            search_sigmas: 2.0,
+            search_starts: 2,
         }
     }
 }
@@ -112,22 +127,22 @@ pub struct WarpFit {
 }
 
 /// A drawn line as a segment in the drawing frame `(u, −v)`, with its unit normal.
-struct Segment {
-    a: Point2,
-    b: Point2,
-    normal: Point2,
+pub(super) struct Segment {
+    pub(super) a: Point2,
+    pub(super) b: Point2,
+    pub(super) normal: Point2,
 }
 
 /// A map wall point and its wall's unit normal (map frame).
 #[derive(Debug, Clone, Copy)]
-struct WallPoint {
-    p: Point2,
-    normal: Point2,
+pub(super) struct WallPoint {
+    pub(super) p: Point2,
+    pub(super) normal: Point2,
 }
 
 impl Segment {
     /// The nearest point of the segment to `p`.
-    fn foot(&self, p: Point2) -> Point2 {
+    pub(super) fn foot(&self, p: Point2) -> Point2 {
         let (dx, dy) = (self.b.x - self.a.x, self.b.y - self.a.y);
         let len2 = dx * dx + dy * dy;
         let t = if len2 > 0.0 {
@@ -189,6 +204,36 @@ pub fn fit_warp(
             )
         },
     );
+    // The prior itself, then the search's best starts; each on a grid of one cell over the
+    // map, whose four corners hold a start whose axes scale apart exactly.
+    let extent_m = (hi.x - lo.x).max(hi.y - lo.y).max(config.spacing_m);
+    let corners = ControlGrid::covering(lo, hi, extent_m);
+    let mut starts = vec![Warp::rigid(prior, corners)];
+    starts.extend(
+        search_starts(&points, &segments, &prior, config)
+            .iter()
+            .take(config.search_starts)
+            .map(|c| c.warp(&prior, corners)),
+    );
+    // The fit with the most wall points on drawn lines.
+    starts
+        .into_iter()
+        .map(|start| fit_from(start, &points, &segments, &prior, config, lo, hi))
+        .max_by_key(|fit| fit.inliers)
+}
+
+/// The fit's stages (similarity, then the control grids coarse to fine) from `start`.
+fn fit_from(
+    start: Warp,
+    points: &[WallPoint],
+    segments: &[Segment],
+    prior: &Similarity,
+    config: &FitConfig,
+    lo: Point2,
+    hi: Point2,
+) -> WarpFit {
+    let s0 = prior.scale_px_per_m();
+    let prior = *prior;
     let px = |m: f64| m * s0;
     let cos_tol = config.direction_tolerance_rad.clamp(0.0, FRAC_PI_2).cos();
     // Coarse to fine: spacings 2^(L−1)·s … s. A level's gate is what its cells cannot bend:
@@ -198,11 +243,11 @@ pub fn fit_warp(
         |level: usize| config.spacing_m * f64::from(1u32 << (levels - 1 - level).min(8));
     let level_gate_px =
         |spacing_m: f64| px((0.5 * config.proportion_error * spacing_m).max(config.gate_m));
-    let mut warp = Warp::rigid(prior, ControlGrid::covering(lo, hi, spacing_at(0)));
+    let mut warp = start;
     // The similarity first, its gate shrinking from the start gate to the first level's.
     let mut gate_px = px(config.start_gate_m.max(config.gate_m));
     for _ in 0..config.similarity_iterations {
-        let pairs = associate(&warp, &points, &segments, gate_px, cos_tol);
+        let pairs = associate(&warp, points, segments, gate_px, cos_tol);
         let Some(step) = solve_step(&warp, &pairs, &prior, config, false) else {
             break;
         };
@@ -214,7 +259,7 @@ pub fn fit_warp(
         warp = warp.resampled(ControlGrid::covering(lo, hi, spacing_m));
         gate_px = gate_px.min(level_gate_px(spacing_m));
         for _ in 0..config.warp_iterations {
-            let pairs = associate(&warp, &points, &segments, gate_px, cos_tol);
+            let pairs = associate(&warp, points, segments, gate_px, cos_tol);
             let Some(step) = solve_step(&warp, &pairs, &prior, config, true) else {
                 break;
             };
@@ -222,7 +267,7 @@ pub fn fit_warp(
         }
     }
     let grid = warp.grid;
-    let pairs = associate(&warp, &points, &segments, gate_px, cos_tol);
+    let pairs = associate(&warp, points, segments, gate_px, cos_tol);
     let mut support = vec![0.0; grid.len()];
     let mut sum_sq = 0.0;
     for pair in &pairs {
@@ -231,12 +276,12 @@ pub fn fit_warp(
             support[k] += w;
         }
     }
-    Some(WarpFit {
+    WarpFit {
         warp,
         inliers: pairs.len(),
         rms_px: (sum_sq / pairs.len().max(1) as f64).sqrt(),
         support,
-    })
+    }
 }
 
 /// A wall point paired with the nearest drawn line of its direction.

@@ -8,6 +8,7 @@
 //! apart, regularized towards the similarity, does.
 //! - [`warp`]: W itself (similarity + bilinear control-grid offsets), its Jacobian;
 //! - [`fit`]: W estimated from the map's wall points against the drawing's lines;
+//! - `search`: the fit's global start, the similarity scored best over the prior's range;
 //! - [`overlay`]: the map drawn over the drawing through W, the drawing over the map
 //!   through W⁻¹;
 //! - [`drawing_registration`]: a session's fitted W, where it holds, and the transforms
@@ -16,6 +17,7 @@
 pub mod drawing_registration;
 pub mod fit;
 pub mod overlay;
+mod search;
 pub mod warp;
 
 pub use drawing_registration::{DrawingRegistration, WarpProblem};
