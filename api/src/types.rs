@@ -314,8 +314,9 @@ pub struct SketchPoseInfo {
     /// Estimated scale around the robot, meters per pixel.
     pub meters_per_pixel: f64,
     /// What gave it: `warp` (the map pose through the warp fitted to the map, where the
-    /// mapped walls hold it) or `mcl` (localization on the drawing); absent in sessions
-    /// stored before the field existed.
+    /// mapped walls hold it), `warp_extrapolated` (the same where none does yet) or `mcl`
+    /// (localization on the drawing, until the map is first registered); absent in
+    /// sessions stored before the field existed.
     #[serde(default)]
     pub source: Option<SketchPoseSource>,
 }
@@ -326,6 +327,8 @@ pub struct SketchPoseInfo {
 pub enum SketchPoseSource {
     /// The map pose through the warp fitted to the map, where the mapped walls hold it.
     Warp,
+    /// The same where no mapped wall holds the warp yet: its extrapolation.
+    WarpExtrapolated,
     /// Localization on the drawing (MCL), at a scan.
     Mcl,
     /// MCL's last estimate carried forward by the odometry.
@@ -372,7 +375,8 @@ pub struct SketchTrajectoryPointInfo {
     /// The drawing's estimated scale there, meters per pixel.
     pub meters_per_pixel: f64,
     /// What gave the pose: `warp` (the map pose through the warp fitted to the map, where
-    /// the mapped walls hold it), `mcl` (localization on the drawing, at a scan) or
+    /// the mapped walls hold it), `warp_extrapolated` (the same where none does yet), `mcl`
+    /// (localization on the drawing, at a scan, before the map is registered) or
     /// `odometry` (MCL's last estimate carried forward between scans).
     #[schema(example = "mcl")]
     pub source: String,

@@ -273,8 +273,9 @@ async fn check_registration(
         on_drawing.to_drawing.len()
     );
 
-    // The session's own trajectory on the drawing takes the warp where it holds.
+    // The session's own trajectory on the drawing is the warp's, held by walls mostly.
     let served = client.sketch_trajectory(session_id).await?;
+    ensure!(served.points.iter().all(|p| p.source.starts_with("warp")));
     let warped = served.points.iter().filter(|p| p.source == "warp").count();
     ensure!(
         2 * warped > served.points.len(),

@@ -28,17 +28,23 @@ pub fn not_registered(session_id: &str) -> ApiError {
     )
 }
 
-/// The pose on the drawing of `response` taken from the warp where the mapped walls hold it
-/// at the map pose `map` (source `warp`); MCL's is kept elsewhere.
+/// The pose on the drawing of `response` taken from the warp at the map pose `map` (source
+/// `warp` where mapped walls hold it, `warp_extrapolated` elsewhere; see
+/// `Mapper::drawing_trajectory_through` for why W beats MCL even there).
 pub fn pose_through_warp(response: &mut PoseResponse, r: &DrawingRegistration, map: &Pose2) {
     let (on, holds) = r.to_drawing(map);
-    if holds && on.u_px.is_finite() && on.v_px.is_finite() {
+    let source = if holds {
+        SketchPoseSource::Warp
+    } else {
+        SketchPoseSource::WarpExtrapolated
+    };
+    if on.u_px.is_finite() && on.v_px.is_finite() {
         response.sketch = Some(SketchPoseInfo {
             u: on.u_px,
             v: on.v_px,
             heading_deg: on.heading_rad.to_degrees(),
             meters_per_pixel: on.meters_per_pixel,
-            source: Some(SketchPoseSource::Warp),
+            source: Some(source),
         });
     }
 }

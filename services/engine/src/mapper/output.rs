@@ -57,6 +57,9 @@ pub enum DrawingPoseSource {
     /// The map pose carried onto the drawing through the warp fitted to the map
     /// ([`crate::registration`]), where the mapped walls hold it.
     Warp,
+    /// The same where no mapped wall holds the warp yet (a room just entered): W's
+    /// extrapolation from its neighbours.
+    WarpExtrapolated,
 }
 
 impl DrawingPoseSource {
@@ -66,6 +69,7 @@ impl DrawingPoseSource {
             DrawingPoseSource::Mcl => "mcl",
             DrawingPoseSource::Odometry => "odometry",
             DrawingPoseSource::Warp => "warp",
+            DrawingPoseSource::WarpExtrapolated => "warp_extrapolated",
         }
     }
 }
