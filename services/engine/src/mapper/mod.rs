@@ -541,23 +541,30 @@ impl Mapper {
         &self,
         registration: &DrawingRegistration,
     ) -> Vec<DrawingPoint> {
-        let mut map = self.trajectory.iter().peekable();
+        // The map pose at each stamp (the later one where a stamp repeats): the trajectory
+        // is in arrival order, which is not always stamp order.
+        let map: std::collections::HashMap<u64, Pose2> = self
+            .trajectory
+            .iter()
+            .map(|t| (t.stamp_ns, t.pose))
+            .collect();
         self.drawing_trajectory
             .iter()
-            .map(|d| {
-                // Both are in stamp order: advance the map poses to this stamp.
-                while map.next_if(|t| t.stamp_ns < d.stamp_ns).is_some() {}
-                match map.peek() {
-                    Some(t) if t.stamp_ns == d.stamp_ns => match registration.to_drawing(&t.pose) {
-                        (pose, true) => DrawingPoint {
-                            stamp_ns: d.stamp_ns,
-                            pose,
-                            source: DrawingPoseSource::Warp,
-                        },
-                        _ => *d,
-                    },
-                    _ => *d,
+            .map(|d| match map.get(&d.stamp_ns) {
+                Some(pose) => {
+                    let (on, holds) = registration.to_drawing(pose);
+                    let source = if holds {
+                        DrawingPoseSource::Warp
+                    } else {
+                        DrawingPoseSource::WarpExtrapolated
+                    };
+                    DrawingPoint {
+                        stamp_ns: d.stamp_ns,
+                        pose: on,
+                        source,
+                    }
                 }
+                None => *d,
             })
             .collect()
     }
