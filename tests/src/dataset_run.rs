@@ -75,8 +75,17 @@ pub fn run_dataset_in_process(
     let relations = dataset_relations(dataset)?;
     let reference = dataset.has_reference_poses().then_some(&run.truth[..]);
     let mut result = score_dataset_artifacts(out_dir, reference, &relations)?;
-    if let (Some(cfg), Some(sketch_pose)) = (sketch, run.mapper.pose().sketch) {
-        write_sketch_artifacts(out_dir, cfg, run.mapper.pose().map, &sketch_pose)?;
+    // The final pose on the drawing as the stopped service serves it: through the final
+    // map's warp once the map is registered, MCL's before.
+    let map_pose = run.mapper.pose().map;
+    let through_warp = run
+        .mapper
+        .warp_problem()
+        .and_then(|p| p.solve())
+        .map(|r| r.to_drawing(&map_pose).0)
+        .filter(|p| p.u_px.is_finite() && p.v_px.is_finite());
+    if let (Some(cfg), Some(sketch_pose)) = (sketch, through_warp.or(run.mapper.pose().sketch)) {
+        write_sketch_artifacts(out_dir, cfg, map_pose, &sketch_pose)?;
     }
     run.fill(&mut result, &dataset.name, method, sketch);
     Ok(result)

@@ -21,8 +21,8 @@ use crate::session_request::{baseline_session, sketch_session};
 use crate::sketch_truth::{fill_sketch_pose_scores, score_published_poses};
 use anyhow::{Context, Result, bail};
 use sketchslam_api::{
-    ClientError, MAX_TRANSFORM_POINTS, MapPointIn, SessionEvent, SketchPoseInfo, SketchslamClient,
-    TransformRequest,
+    ClientError, DrawingPointOut, MAX_TRANSFORM_POINTS, MapPointIn, SessionEvent, SketchPoseInfo,
+    SketchslamClient, TrajectoryPointInfo, TransformRequest,
 };
 use sketchslam_engine::mapper::Method;
 use sketchslam_engine::sketch::SketchPose;
@@ -249,12 +249,13 @@ pub fn map_through_processes(
         }
     }
     let wall_s = started.elapsed().as_secs_f64();
+    let stopped = runtime.block_on(client.stop_session(&session.id))?;
+    // The stopped session's last pose: on the drawing through the final map's warp.
     let pose = runtime.block_on(client.pose(&session.id))?;
     let final_pose = (
         Pose2::new(pose.x, pose.y, pose.theta),
         pose.sketch.as_ref().map(sketch_pose_of),
     );
-    let stopped = runtime.block_on(client.stop_session(&session.id))?;
     // The event stream ends with the session.
     let published_poses = runtime
         .block_on(async { tokio::time::timeout(Duration::from_secs(20), recorder).await })
@@ -297,6 +298,27 @@ pub fn map_through_processes(
     })
 }
 
+/// Trajectory `points` paired with `POST …/transform`'s answers for them, as poses on the
+/// drawing stamped in seconds (a heading not asked for is NaN).
+pub fn poses_on_drawing(
+    points: &[TrajectoryPointInfo],
+    answers: &[DrawingPointOut],
+) -> Vec<(f64, SketchPose)> {
+    points
+        .iter()
+        .zip(answers)
+        .map(|(p, d)| {
+            let pose = SketchPose {
+                u_px: d.u_px,
+                v_px: d.v_px,
+                heading_rad: d.heading_rad.unwrap_or(f64::NAN),
+                meters_per_pixel: d.meters_per_pixel,
+            };
+            (p.t, pose)
+        })
+        .collect()
+}
+
 /// A `sketch` session's map laid on its drawing, over HTTP: the final trajectory through
 /// `POST /transform` (written as `warp-trajectory.csv` and returned, stamp in seconds), and
 /// `sketch-overlay.png`, `sketch-in-map.png`. Nothing (and no error) while the session has
@@ -329,20 +351,7 @@ fn fetch_registration(
             other => to_drawing.extend(other?.to_drawing),
         }
     }
-    let poses: Vec<(f64, SketchPose)> = trajectory
-        .points
-        .iter()
-        .zip(&to_drawing)
-        .map(|(p, d)| {
-            let pose = SketchPose {
-                u_px: d.u_px,
-                v_px: d.v_px,
-                heading_rad: d.heading_rad.unwrap_or(f64::NAN),
-                meters_per_pixel: d.meters_per_pixel,
-            };
-            (p.t, pose)
-        })
-        .collect();
+    let poses = poses_on_drawing(&trajectory.points, &to_drawing);
     write_warp_trajectory(out_dir, &poses)?;
     std::fs::write(
         out_dir.join(SKETCH_OVERLAY_FILE),

@@ -16,11 +16,11 @@ use common::{TempDir, dump_log, start_service};
 use sketchslam_api::{
     DrawingPointIn, MapPointIn, RegistrationInfo, SessionState, TransformRequest, TransformResponse,
 };
-use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::scenario::Scenario;
 use sketchslam_simulator::world::World;
 use sketchslam_tests::metrics::WallGrid;
 use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario, unique_prefix};
+use sketchslam_tests::real_process::poses_on_drawing;
 use sketchslam_tests::run::{Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
 use sketchslam_tests::session_request::sketch_session;
 use sketchslam_tests::sketch_truth::score_published_poses;
@@ -238,20 +238,7 @@ async fn check_registration(
     };
     let on_drawing = client.transform(session_id, &request).await?;
     ensure!(on_drawing.to_drawing.len() == trajectory.points.len());
-    let published: Vec<(f64, SketchPose)> = trajectory
-        .points
-        .iter()
-        .zip(&on_drawing.to_drawing)
-        .map(|(p, d)| {
-            let pose = SketchPose {
-                u_px: d.u_px,
-                v_px: d.v_px,
-                heading_rad: d.heading_rad.unwrap_or(f64::NAN),
-                meters_per_pixel: d.meters_per_pixel,
-            };
-            (p.t, pose)
-        })
-        .collect();
+    let published = poses_on_drawing(&trajectory.points, &on_drawing.to_drawing);
     let truth = read_trajectory_csv(truth_csv)?;
     let score = score_published_poses(&scenario.dir, "A", &truth, &published)?
         .context("paper-env1 says how sketch A was drawn")?;

@@ -284,24 +284,16 @@ impl Session {
     /// nothing registered.
     fn registration_files(&self) -> Option<RegistrationFiles> {
         let (r, sketch) = self.registered().ok()?;
-        let grid = self.grid();
-        let route: Vec<_> = lock(&self.mapper)
-            .trajectory()
-            .iter()
-            .map(|t| t.pose)
-            .collect();
-        let overlay = render_map_on_drawing(&sketch, r.warp(), &grid.occupied_points(), &route);
-        let lines = r.lines_in_map(&sketch.lines);
         Some(RegistrationFiles {
             registration_json: serde_json::to_vec(&registration_info(&self.id, &r)).ok()?,
-            sketch_overlay_png: encode_png(&overlay),
+            sketch_overlay_png: self.sketch_overlay_png().ok()?,
             sketch_in_map_json: serde_json::to_vec(&sketch_in_map_response(
                 &self.id,
                 &r,
                 &sketch.lines,
             ))
             .ok()?,
-            sketch_in_map_png: encode_png(&render_drawing_on_map(&grid, &lines)),
+            sketch_in_map_png: self.sketch_in_map_png().ok()?,
         })
     }
 
