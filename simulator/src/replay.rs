@@ -40,7 +40,7 @@
 //! the scan) from the scan's reference pose, so the mapper has odometry exactly at each scan.
 //!
 //! A raw log whose `ODOM` lines lag their stamps by one line is re-stamped
-//! ([`odometry_lags_one_line`]): GMapping's `.gfs` writer gives each `LASER_READING` the
+//! (`odometry_lags_one_line`): GMapping's `.gfs` writer gives each `LASER_READING` the
 //! pose of the `ODOM` line *after* the one with its stamp (all 406 scans of the CSAIL log,
 //! exactly), and where a line is missing the motion shows one line late — across the CSAIL
 //! log's 1.07 s gaps its benchmark relations turn 50°, 69° and 25° while the `ODOM` line at

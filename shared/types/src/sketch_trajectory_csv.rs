@@ -4,7 +4,7 @@
 //! corner (u right, v down); radians counter-clockwise from +u as the drawing is seen; the
 //! drawing's estimated scale there in meters per pixel. Written by the service
 //! (`GET …/trajectory?frame=sketch&format=csv`) and by `evaluate`'s in-process runs with the
-//! same [`write`], so both give the same bytes; [`parse`] reads it back (what it wrote, to
+//! same [`write()`], so both give the same bytes; [`parse`] reads it back (what it wrote, to
 //! the written precision: 9 decimals of seconds, 3 of pixels, 6 of radians and scale).
 
 use std::fmt::Write as _;

@@ -27,7 +27,7 @@
 //!   puts it, so what a similarity explains (a turn, a scale) stays in the similarity.
 //!
 //! Started from the prior and from the best starts of a global search over the prior's
-//! range ([`super::search`]: scale, stretch of the axes, rotation, translation scored
+//! range (`search`: scale, stretch of the axes, rotation, translation scored
 //! against a distance field of the drawn lines), keeping the fit with the most inliers: from
 //! the prior alone, a scale guess 30 % off settles a room over on a floor of same-size rooms.
 //! Each runs Gauss–Newton (the model is linear in θ; the nearest lines are found again each
@@ -82,7 +82,7 @@ pub struct FitConfig {
     /// to `spacing_m`, so a floor's large proportions settle before a room's (1: the fine
     /// grid alone).
     pub levels: usize,
-    /// The global start ([`super::search`]) searches this many standard deviations of the
+    /// The global start (`search`) searches this many standard deviations of the
     /// prior's scale, rotation and translation each way (0: start from the prior).
     pub search_sigmas: f64,
     /// The fit runs from the prior and from this many of the search's starts (the best

@@ -59,7 +59,7 @@ pub fn render_map_on_drawing(
 /// The grid with the drawing's `lines` (map meters, polylines from
 /// [`super::DrawingRegistration::lines_in_map`]) drawn over it, on a canvas covering both
 /// (top row = largest y, as `map.png`), one pixel per grid cell unless that would exceed
-/// [`MAX_MAP_SIDE_PX`].
+/// `MAX_MAP_SIDE_PX` (2048).
 pub fn render_drawing_on_map(grid: &OccupancyGrid, lines: &[Vec<Point2>]) -> RgbImage {
     let r = grid.resolution_m();
     let o = grid.origin();

@@ -261,7 +261,7 @@ impl Warp {
     /// `W⁻¹(w)`: the map point that W carries to drawing-frame `w` (pixels), by Newton's
     /// method from the similarity's inverse, `p ← p − J(p)⁻¹ (W(p) − w)` with
     /// [`Warp::jacobian`]. `None` where W folds (`det J ≤ 0` on the way) or Newton does not
-    /// reach 10⁻⁶ px in [`INVERSE_ITERATIONS`] steps (a point W cannot reach). W is
+    /// reach 10⁻⁶ px in `INVERSE_ITERATIONS` (30) steps (a point W cannot reach). W is
     /// bilinear per cell, so Newton converges in a few steps inside a cell. O(iterations).
     pub fn invert(&self, w: Point2) -> Option<Point2> {
         let s = &self.similarity;
