@@ -533,10 +533,11 @@ impl Mapper {
     /// The trajectory on the drawing through a registration: at every stamp of
     /// [`Mapper::drawing_trajectory`] with a map pose (the trajectory's at the same stamp),
     /// W's pose — source [`DrawingPoseSource::Warp`] where mapped walls hold W there,
-    /// [`DrawingPoseSource::WarpExtrapolated`] elsewhere. W, even extrapolated, is the
-    /// better guess than MCL (measured 2026-12-02 on the eight shared drawings: W everywhere
-    /// never worse than MCL where W is not held, e.g. paper-env2 D median 1.24 against
-    /// 1.53 m); MCL's pose stays only at a stamp without a map pose. O(trajectory).
+    /// [`DrawingPoseSource::WarpExtrapolated`] elsewhere. W, even extrapolated, is taken
+    /// over MCL because MCL is the far worse guess overall (2026-12-02, shared drawings:
+    /// MCL's median 3–44 m on six of eight, W's 0.5–1.1 m); no clean comparison of the two
+    /// where W is not held has been run. MCL's pose stays only at a stamp without a map
+    /// pose. O(trajectory).
     pub fn drawing_trajectory_through(
         &self,
         registration: &DrawingRegistration,
