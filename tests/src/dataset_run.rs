@@ -15,7 +15,7 @@
 //! process, [`run_dataset_real_process`] launches `slam-service` and `simulator replay`.
 
 use crate::metrics::{self, StampedPose};
-use crate::real_process::{StreamSource, map_through_processes};
+use crate::real_process::{StreamSource, map_through_processes, sketch_pose_of};
 use crate::relations::{Relation, score_relations};
 use crate::run::{RunResult, read_map_occupied_points, read_trajectory_csv};
 use crate::run_loop::map_in_process;
@@ -27,6 +27,8 @@ use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::dataset::Dataset;
 use sketchslam_simulator::replay::Replay;
 use sketchslam_simulator::scenario::SketchConfig;
+use sketchslam_slam::codec::pose_response;
+use sketchslam_slam::registration_codec::pose_through_warp;
 use sketchslam_types::{Point2, Pose2};
 use std::path::Path;
 
@@ -75,17 +77,15 @@ pub fn run_dataset_in_process(
     let relations = dataset_relations(dataset)?;
     let reference = dataset.has_reference_poses().then_some(&run.truth[..]);
     let mut result = score_dataset_artifacts(out_dir, reference, &relations)?;
-    // The final pose on the drawing as the stopped service serves it: through the final
-    // map's warp once the map is registered, MCL's before.
-    let map_pose = run.mapper.pose().map;
-    let through_warp = run
-        .mapper
-        .warp_problem()
-        .and_then(|p| p.solve())
-        .map(|r| r.to_drawing(&map_pose).0)
-        .filter(|p| p.u_px.is_finite() && p.v_px.is_finite());
-    if let (Some(cfg), Some(sketch_pose)) = (sketch, through_warp.or(run.mapper.pose().sketch)) {
-        write_sketch_artifacts(out_dir, cfg, map_pose, &sketch_pose)?;
+    // The final pose on the drawing as the stopped service serves it, by its own codec:
+    // through the final map's warp once the map is registered, MCL's before.
+    let estimate = run.mapper.pose();
+    let mut pose = pose_response("in-process", &estimate, &run.mapper.health());
+    if let Some(r) = run.mapper.drawing_registration() {
+        pose_through_warp(&mut pose, &r, &estimate.map);
+    }
+    if let (Some(cfg), Some(sketch_pose)) = (sketch, pose.sketch.as_ref().map(sketch_pose_of)) {
+        write_sketch_artifacts(out_dir, cfg, estimate.map, &sketch_pose)?;
     }
     run.fill(&mut result, &dataset.name, method, sketch);
     Ok(result)

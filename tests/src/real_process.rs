@@ -37,7 +37,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// The API's pose on the drawing as the engine's (degrees → radians).
-fn sketch_pose_of(s: &SketchPoseInfo) -> SketchPose {
+pub(crate) fn sketch_pose_of(s: &SketchPoseInfo) -> SketchPose {
     SketchPose {
         u_px: s.u,
         v_px: s.v,
@@ -298,6 +298,21 @@ pub fn map_through_processes(
     })
 }
 
+/// A transform request carrying trajectory `points` (with their headings) onto the drawing.
+pub fn to_drawing_request(points: &[TrajectoryPointInfo]) -> TransformRequest {
+    TransformRequest {
+        to_map: vec![],
+        to_drawing: points
+            .iter()
+            .map(|p| MapPointIn {
+                x_m: p.x,
+                y_m: p.y,
+                heading_rad: Some(p.theta),
+            })
+            .collect(),
+    }
+}
+
 /// Trajectory `points` paired with `POST …/transform`'s answers for them, as poses on the
 /// drawing stamped in seconds (a heading not asked for is NaN).
 pub fn poses_on_drawing(
@@ -333,18 +348,7 @@ fn fetch_registration(
     // In batches the endpoint takes.
     let mut to_drawing = Vec::with_capacity(trajectory.points.len());
     for chunk in trajectory.points.chunks(MAX_TRANSFORM_POINTS) {
-        let request = TransformRequest {
-            to_map: vec![],
-            to_drawing: chunk
-                .iter()
-                .map(|p| MapPointIn {
-                    x_m: p.x,
-                    y_m: p.y,
-                    heading_rad: Some(p.theta),
-                })
-                .collect(),
-        };
-        match runtime.block_on(client.transform(session_id, &request)) {
+        match runtime.block_on(client.transform(session_id, &to_drawing_request(chunk))) {
             Err(ClientError::Api { status, .. }) if status.as_u16() == 409 => {
                 return Ok(Vec::new());
             }

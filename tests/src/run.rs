@@ -109,7 +109,7 @@ pub struct RunResult {
     pub sketch_heading_median_deg: Option<f64>,
     /// In-process `sketch` runs on a scenario with `sketch-truth.toml`: median error of the
     /// final trajectory carried onto the drawing through the warp fitted to the final map
-    /// ([`sketchslam_engine::mapper::Mapper::drawing_warp`]), meters at the nominal scale.
+    /// ([`sketchslam_engine::mapper::Mapper::drawing_registration`]), meters at the nominal scale.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub warp_pose_median_m: Option<f64>,
     /// 95th percentile of that error, meters at the nominal scale.

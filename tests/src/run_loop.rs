@@ -21,7 +21,7 @@ use sketchslam_engine::registration::{render_drawing_on_map, render_map_on_drawi
 use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::SimStep;
 use sketchslam_simulator::scenario::SketchConfig;
-use sketchslam_slam::codec::sketch_trajectory_response;
+use sketchslam_slam::registration_codec::served_sketch_trajectory;
 use sketchslam_types::SensorEvent;
 use sketchslam_types::sketch_trajectory_csv::{self, DrawingRow};
 use std::path::Path;
@@ -118,13 +118,8 @@ pub fn map_in_process(
         // The whole trajectory on the drawing, through the service's own codec, so the file
         // is what `?frame=sketch&format=csv` serves once the session stopped: the final
         // map's warp where its walls hold it, MCL's poses elsewhere.
-        let registration = mapper.warp_problem().and_then(|p| p.solve());
-        let on_drawing = match &registration {
-            Some(r) => {
-                sketch_trajectory_response("in-process", &mapper.drawing_trajectory_through(r))
-            }
-            None => sketch_trajectory_response("in-process", mapper.drawing_trajectory()),
-        };
+        let registration = mapper.drawing_registration();
+        let on_drawing = served_sketch_trajectory("in-process", &mapper, registration.as_ref());
         std::fs::write(out_dir.join("sketch-trajectory.csv"), on_drawing.to_csv())?;
         sketch_poses = served_drawing_poses(&on_drawing);
         if let Some(registration) = registration {

@@ -20,7 +20,7 @@ use sketchslam_simulator::scenario::Scenario;
 use sketchslam_simulator::world::World;
 use sketchslam_tests::metrics::WallGrid;
 use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario, unique_prefix};
-use sketchslam_tests::real_process::poses_on_drawing;
+use sketchslam_tests::real_process::{poses_on_drawing, to_drawing_request};
 use sketchslam_tests::run::{Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
 use sketchslam_tests::session_request::sketch_session;
 use sketchslam_tests::sketch_truth::score_published_poses;
@@ -224,18 +224,7 @@ async fn check_registration(
         registration.keyframes
     );
     let trajectory = client.trajectory(session_id).await?;
-    let request = TransformRequest {
-        to_map: vec![],
-        to_drawing: trajectory
-            .points
-            .iter()
-            .map(|p| MapPointIn {
-                x_m: p.x,
-                y_m: p.y,
-                heading_rad: Some(p.theta),
-            })
-            .collect(),
-    };
+    let request = to_drawing_request(&trajectory.points);
     let on_drawing = client.transform(session_id, &request).await?;
     ensure!(on_drawing.to_drawing.len() == trajectory.points.len());
     let published = poses_on_drawing(&trajectory.points, &on_drawing.to_drawing);

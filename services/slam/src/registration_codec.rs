@@ -5,11 +5,13 @@
 //! Sits between the session ([`super::session`], which fits the warp) and the HTTP types of
 //! `sketchslam_api::registration`; pure conversions.
 
+use super::codec::sketch_trajectory_response;
 use sketchslam_api::{
     ApiError, DrawingPointOut, MapPointOut, PoseResponse, RegistrationInfo, SketchInMapResponse,
-    SketchLineInMap, SketchPoseInfo, SketchPoseSource, TransformRequest, TransformResponse,
-    WarpInfo,
+    SketchLineInMap, SketchPoseInfo, SketchPoseSource, SketchTrajectoryResponse, TransformRequest,
+    TransformResponse, WarpInfo,
 };
+use sketchslam_engine::mapper::Mapper;
 use sketchslam_engine::registration::drawing_registration::MIN_SUPPORT_POINTS;
 use sketchslam_engine::registration::{
     ControlGrid, DrawingRegistration, Similarity, Warp, WarpFit,
@@ -46,6 +48,19 @@ pub fn pose_through_warp(response: &mut PoseResponse, r: &DrawingRegistration, m
             meters_per_pixel: on.meters_per_pixel,
             source: Some(source),
         });
+    }
+}
+
+/// A `sketch` session's trajectory on the drawing as served: through `warp` when the map
+/// is registered (`Mapper::drawing_trajectory_through`), MCL's until then.
+pub fn served_sketch_trajectory(
+    session_id: &str,
+    mapper: &Mapper,
+    warp: Option<&DrawingRegistration>,
+) -> SketchTrajectoryResponse {
+    match warp {
+        Some(r) => sketch_trajectory_response(session_id, &mapper.drawing_trajectory_through(r)),
+        None => sketch_trajectory_response(session_id, mapper.drawing_trajectory()),
     }
 }
 

@@ -26,14 +26,12 @@ use sketchslam_ipc::IpcConfig;
 use sketchslam_types::SensorEvent;
 use tokio::sync::broadcast;
 
-use super::codec::{
-    no_drawing, occupancy_response, pose_response, sketch_trajectory_response, trajectory_response,
-};
+use super::codec::{no_drawing, occupancy_response, pose_response, trajectory_response};
 use super::intake::{Intake, IntakeMsg};
 use super::metrics::Histogram;
 use super::registration_codec::{
-    not_registered, pose_through_warp, registration_info, sketch_in_map_response,
-    transform_response,
+    not_registered, pose_through_warp, registration_info, served_sketch_trajectory,
+    sketch_in_map_response, transform_response,
 };
 use super::storage::{RegistrationFiles, SessionFiles, SessionMeta};
 use super::warp_cache::{WarpCache, spawn_worker};
@@ -106,8 +104,6 @@ pub struct Session {
     shared: Arc<SessionShared>,
     mapper: Arc<Mutex<Mapper>>,
     threads: Mutex<Option<(Intake, JoinHandle<()>)>>,
-    /// The warp onto the drawing (`sketch` sessions), kept fresh by its worker thread.
-    warp: Arc<WarpCache>,
     /// The warp worker and the flag that stops it.
     warp_worker: Mutex<Option<(Arc<AtomicBool>, JoinHandle<()>)>>,
 }
@@ -145,10 +141,9 @@ impl Session {
                 .spawn(move || run_mapper(rx, mapper, shared, histogram))
                 .map_err(|e| ApiError::internal(format!("cannot spawn the mapper thread: {e}")))?
         };
-        let warp = shared.warp.clone();
         let warp_worker = if lock(&mapper).drawing().is_some() {
             let stop = Arc::new(AtomicBool::new(false));
-            let worker = spawn_worker(&robot_id, mapper.clone(), warp.clone(), stop.clone())
+            let worker = spawn_worker(&robot_id, mapper.clone(), shared.warp.clone(), stop.clone())
                 .map_err(|e| ApiError::internal(format!("cannot spawn the warp worker: {e}")))?;
             Some((stop, worker))
         } else {
@@ -161,7 +156,6 @@ impl Session {
             shared,
             mapper,
             threads: Mutex::new(Some((intake, thread))),
-            warp,
             warp_worker: Mutex::new(warp_worker),
         })
     }
@@ -194,15 +188,12 @@ impl Session {
 
     /// The trajectory on the drawing so far (`sketch` sessions; an error for the others).
     pub fn sketch_trajectory(&self) -> Result<SketchTrajectoryResponse, ApiError> {
-        let warp = self.warp.current();
+        let warp = self.shared.warp.current();
         let m = lock(&self.mapper);
         if m.method() != Method::Sketch {
             return Err(no_drawing(&self.id, m.method().as_str()));
         }
-        Ok(match warp {
-            Some(r) => sketch_trajectory_response(&self.id, &m.drawing_trajectory_through(&r)),
-            None => sketch_trajectory_response(&self.id, m.drawing_trajectory()),
-        })
+        Ok(served_sketch_trajectory(&self.id, &m, warp.as_deref()))
     }
 
     /// A copy of the map so far (rendering happens outside the mapper's lock). After a
@@ -233,6 +224,7 @@ impl Session {
             }
         };
         let fitted = self
+            .shared
             .warp
             .fresh(&self.mapper)
             .ok_or_else(|| not_registered(&self.id))?;
@@ -260,40 +252,50 @@ impl Session {
     /// `GET /sketch-overlay.png`: the map and the route over the drawing.
     pub fn sketch_overlay_png(&self) -> Result<Vec<u8>, ApiError> {
         let (r, sketch) = self.registered()?;
-        let grid = self.grid();
-        let route: Vec<_> = lock(&self.mapper)
-            .trajectory()
-            .iter()
-            .map(|t| t.pose)
-            .collect();
-        let image = render_map_on_drawing(&sketch, r.warp(), &grid.occupied_points(), &route);
-        Ok(encode_png(&image))
+        Ok(self.overlay_png(&r, &sketch, &self.grid()))
     }
 
     /// `GET /sketch-in-map.png`: the drawing's lines over the map.
     pub fn sketch_in_map_png(&self) -> Result<Vec<u8>, ApiError> {
         let (r, sketch) = self.registered()?;
-        let grid = self.grid();
-        Ok(encode_png(&render_drawing_on_map(
-            &grid,
-            &r.lines_in_map(&sketch.lines),
-        )))
+        Ok(in_map_png(&r, &sketch, &self.grid()))
     }
 
-    /// What a stopped session keeps of its registration; `None` without a drawing or with
-    /// nothing registered.
+    /// The map `grid` and the route over the drawing through `r`.
+    fn overlay_png(
+        &self,
+        r: &DrawingRegistration,
+        sketch: &Sketch,
+        grid: &OccupancyGrid,
+    ) -> Vec<u8> {
+        let route: Vec<_> = lock(&self.mapper)
+            .trajectory()
+            .iter()
+            .map(|t| t.pose)
+            .collect();
+        encode_png(&render_map_on_drawing(
+            sketch,
+            r.warp(),
+            &grid.occupied_points(),
+            &route,
+        ))
+    }
+
+    /// What a stopped session keeps of its registration, from one copy of the map; `None`
+    /// without a drawing or with nothing registered.
     fn registration_files(&self) -> Option<RegistrationFiles> {
         let (r, sketch) = self.registered().ok()?;
+        let grid = self.grid();
         Some(RegistrationFiles {
             registration_json: serde_json::to_vec(&registration_info(&self.id, &r)).ok()?,
-            sketch_overlay_png: self.sketch_overlay_png().ok()?,
+            sketch_overlay_png: self.overlay_png(&r, &sketch, &grid),
             sketch_in_map_json: serde_json::to_vec(&sketch_in_map_response(
                 &self.id,
                 &r,
                 &sketch.lines,
             ))
             .ok()?,
-            sketch_in_map_png: self.sketch_in_map_png().ok()?,
+            sketch_in_map_png: in_map_png(&r, &sketch, &grid),
         })
     }
 
@@ -308,19 +310,17 @@ impl Session {
         }
         self.stop_warp_worker();
         // The final map's warp, whatever the worker fitted last.
-        let warp = self.warp.refit(&self.mapper);
+        let warp = self.shared.warp.refit(&self.mapper);
         let (grid, points, pose, on_drawing) = {
             // The mapper thread rebuilt the map when the intake hung up.
             let m = lock(&self.mapper);
             let estimate = m.pose();
             let mut pose = pose_response(&self.id, &estimate, &m.health());
-            let on_drawing = (m.method() == Method::Sketch).then(|| match &warp {
-                Some(r) => {
-                    pose_through_warp(&mut pose, r, &estimate.map);
-                    sketch_trajectory_response(&self.id, &m.drawing_trajectory_through(r))
-                }
-                None => sketch_trajectory_response(&self.id, m.drawing_trajectory()),
-            });
+            if let Some(r) = &warp {
+                pose_through_warp(&mut pose, r, &estimate.map);
+            }
+            let on_drawing = (m.method() == Method::Sketch)
+                .then(|| served_sketch_trajectory(&self.id, &m, warp.as_deref()));
             (
                 m.grid_as_built().clone(),
                 m.trajectory().to_vec(),
@@ -379,6 +379,11 @@ impl Drop for Session {
         }
         self.stop_warp_worker();
     }
+}
+
+/// The drawing's lines over the map `grid` through `r`.
+fn in_map_png(r: &DrawingRegistration, sketch: &Sketch, grid: &OccupancyGrid) -> Vec<u8> {
+    encode_png(&render_drawing_on_map(grid, &r.lines_in_map(&sketch.lines)))
 }
 
 fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {

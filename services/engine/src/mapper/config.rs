@@ -75,7 +75,7 @@ pub struct MapperConfig {
     /// ICP-SLAM).
     pub loop_closure: Option<LoopClosureConfig>,
     /// `sketch` sessions: the fit of the warp from the map onto the drawing
-    /// ([`crate::registration`], [`super::Mapper::drawing_warp`]).
+    /// ([`crate::registration`], [`super::Mapper::drawing_registration`]).
     pub registration: FitConfig,
     /// Seed of every random draw of the session.
     pub seed: u64,

@@ -60,7 +60,7 @@ use crate::EngineError;
 use crate::back_end::heading_prior::WallHeadingPrior;
 use crate::back_end::loop_closure::LoopCloser;
 use crate::mapping::grid::OccupancyGrid;
-use crate::registration::{DrawingRegistration, Similarity, WarpFit, WarpProblem};
+use crate::registration::{DrawingRegistration, Similarity, WarpProblem};
 use crate::scan_matching::correlative::voxel_filter;
 use crate::scan_matching::odometry_noise::OdometryPath;
 use crate::sketch::SketchPose;
@@ -473,8 +473,8 @@ impl Mapper {
     /// the start and its axes the drawing's); `None` for the other methods or with nothing
     /// to fit yet. Mapping-side work, O(points · lines) per iteration of the fit: a service
     /// copies [`Mapper::warp_problem`] out and solves it without the mapper.
-    pub fn drawing_warp(&self) -> Option<WarpFit> {
-        self.warp_problem()?.solve().map(|r| r.fit)
+    pub fn drawing_registration(&self) -> Option<DrawingRegistration> {
+        self.warp_problem()?.solve()
     }
 
     /// Keyframes in the pose graph (0 without loop closure). O(1).
@@ -482,7 +482,7 @@ impl Mapper {
         self.back_end.as_ref().map_or(0, |b| b.closer.poses().len())
     }
 
-    /// What [`Mapper::drawing_warp`] fits, copied out (the keyframes' walls thinned to
+    /// What [`Mapper::drawing_registration`] fits, copied out (the keyframes' walls thinned to
     /// 0.1 m, the drawing's lines, the prior): O(keyframe points) under the caller's lock,
     /// the fit itself outside it. `None` for the other methods.
     pub fn warp_problem(&self) -> Option<WarpProblem> {
@@ -893,7 +893,7 @@ mod tests {
     #[test]
     fn the_trajectory_on_the_drawing_through_the_warp_says_where_it_holds() {
         let (m, _) = drive_laps(Method::Sketch, MapperConfig::default(), |_, _| {});
-        let registration = m.warp_problem().and_then(|p| p.solve()).unwrap();
+        let registration = m.drawing_registration().unwrap();
         let through = m.drawing_trajectory_through(&registration);
         assert_eq!(through.len(), m.drawing_trajectory().len());
         let mut warped = 0;
@@ -920,8 +920,9 @@ mod tests {
     fn the_warp_fitted_to_the_map_lays_the_route_on_its_drawing() {
         let (m, truth) = drive_laps(Method::Sketch, MapperConfig::default(), |_, _| {});
         let fit = m
-            .drawing_warp()
-            .expect("a sketch session with keyframes has a warp");
+            .drawing_registration()
+            .expect("a sketch session with keyframes has a warp")
+            .fit;
         // Each final pose through W against its true pose drawn at (10 + x / 0.05,
         // 130 − y / 0.05): within 3 px (0.15 m) everywhere.
         assert_eq!(m.trajectory().len(), truth.len());
@@ -936,6 +937,6 @@ mod tests {
         }
         assert!(fit.inliers > 100, "{}", fit.inliers);
         let (graph, _) = drive_laps(Method::Graph, MapperConfig::default(), |_, _| {});
-        assert!(graph.drawing_warp().is_none());
+        assert!(graph.drawing_registration().is_none());
     }
 }
