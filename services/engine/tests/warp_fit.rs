@@ -1,6 +1,8 @@
 //! The map-to-drawing warp recovers a drawing whose proportions are wrong: a floor drawn
 //! 30 % too wide in its west part and 10 % too narrow in its east, 10 % too tall, fitted
-//! from a similarity prior 15 % and 3° off, with clutter and an undrawn wall in the map.
+//! from a similarity prior 15 % and 3° off, with clutter and an undrawn wall in the map;
+//! and a drawing stretched or sheared as a whole, which the bending prior lets through
+//! exactly.
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -104,7 +106,7 @@ fn map_points(rng: &mut ChaCha8Rng) -> Vec<Point2> {
 }
 
 #[test]
-fn a_drawing_with_wrong_proportions_is_recovered_within_two_pixels() {
+fn a_drawing_with_wrong_proportions_is_recovered_within_four_pixels() {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let points = map_points(&mut rng);
     let lines = drawing();
@@ -119,8 +121,12 @@ fn a_drawing_with_wrong_proportions_is_recovered_within_two_pixels() {
     for (x, y) in CORNERS {
         let corner = Point2::new(x, y);
         let off_px = fit.warp.apply(corner).distance(&drawn(corner));
+        // 4 px = 0.2 m at 20 px/m. The bending prior smooths a kink this sharp (the
+        // proportion changes by 40 % at one node line) by up to 3.4 px at the outline's
+        // corners; looser (σ_b at 2 % per cell, 1.9 px here) it measured worse over 32
+        // mapped drawings (`bench-warp`: median 0.28 against 0.25 m, p90 2.07 against 1.37 m).
         assert!(
-            off_px <= 2.0,
+            off_px <= 4.0,
             "corner ({x}, {y}) is {off_px:.2} px off the drawn corner"
         );
     }
@@ -168,6 +174,29 @@ fn a_drawing_in_proportion_gives_its_similarity_back() {
         let j = fit.warp.jacobian(c);
         assert!((j[(0, 0)] - 20.0 * 0.1f64.cos()).abs() < 0.5, "{j}");
         assert!((fit.warp.heading_on_drawing(c, 0.3) - 0.2).abs() < 0.02);
+    }
+}
+
+#[test]
+fn a_drawing_stretched_and_sheared_as_a_whole_is_recovered_within_a_pixel() {
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    let points = map_points(&mut rng);
+    // 24 px/m along x, 17 along y, a shear of 0.15 (a page drawn slanted): no similarity.
+    let drawn = |p: Point2| Point2::new(24.0 * p.x + 0.15 * 17.0 * p.y + 30.0, 17.0 * p.y - 300.0);
+    let lines: Vec<SketchLine> = WALLS
+        .iter()
+        .enumerate()
+        .map(|(i, (a, b))| {
+            let (da, db) = (drawn(Point2::new(a.0, a.1)), drawn(Point2::new(b.0, b.1)));
+            SketchLine::new(i, Point2::new(da.x, -da.y), Point2::new(db.x, -db.y))
+        })
+        .collect();
+    let prior = Similarity::new(20.0, 0.0, Point2::new(40.0, -290.0));
+    let fit = fit_warp(&points, &lines, prior, &FitConfig::default()).expect("a fit");
+    for (x, y) in CORNERS {
+        let c = Point2::new(x, y);
+        let off_px = fit.warp.apply(c).distance(&drawn(c));
+        assert!(off_px < 1.0, "corner ({x}, {y}) is {off_px:.2} px off");
     }
 }
 
