@@ -20,6 +20,7 @@ use crate::relations::{Relation, score_relations};
 use crate::run::{RunResult, read_map_occupied_points, read_trajectory_csv};
 use crate::run_loop::map_in_process;
 use crate::run_method::RunMethod;
+use crate::warp_problem_file::WarpProblemFile;
 use anyhow::{Context, Result};
 use image::{Rgb, RgbImage};
 use sketchslam_engine::mapper::Method;
@@ -74,6 +75,11 @@ pub fn run_dataset_in_process(
         max_scans,
         progress,
     )?;
+    if let Some(cfg) = sketch.filter(|_| method.method == Method::Sketch)
+        && let Some(problem) = run.mapper.warp_problem()
+    {
+        WarpProblemFile::new(&problem, &dataset.dir, &cfg.name).write(out_dir)?;
+    }
     let relations = dataset_relations(dataset)?;
     let reference = dataset.has_reference_poses().then_some(&run.truth[..]);
     let mut result = score_dataset_artifacts(out_dir, reference, &relations)?;
@@ -176,6 +182,7 @@ pub fn score_dataset_artifacts(
         warp_pose_median_m: None,
         warp_pose_p95_m: None,
         warp_pose_within_1m: None,
+        warp_held: None,
         sketch_pose_p95_m: None,
         sketch_pose_within_1m: None,
         sketch_heading_median_deg: None,

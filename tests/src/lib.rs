@@ -16,3 +16,4 @@ pub mod run_method;
 pub mod service_process;
 pub mod session_request;
 pub mod sketch_truth;
+pub mod warp_problem_file;

@@ -13,7 +13,7 @@ use crate::processes::{ChildGuard, binary, unique_prefix};
 use crate::run::ONLINE_TRAJECTORY_FILE;
 use crate::run::{RunResult, Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
 use crate::run_loop::{
-    RunFigures, SKETCH_IN_MAP_FILE, SKETCH_OVERLAY_FILE, served_drawing_poses,
+    RunFigures, SKETCH_IN_MAP_FILE, SKETCH_OVERLAY_FILE, served_drawing_poses, warp_held_share,
     write_warp_trajectory,
 };
 use crate::service_process::{ServiceOptions, ServiceProcess};
@@ -265,10 +265,12 @@ pub fn map_through_processes(
         trajectory_csv::write(&published_poses, NumberFormat::Fixed),
     )?;
     let (mut published_sketch_poses, mut warp_poses) = (Vec::new(), Vec::new());
+    let mut warp_held = None;
     if method == Method::Sketch {
         let on_drawing = runtime.block_on(client.sketch_trajectory(&session.id))?;
         std::fs::write(out_dir.join("sketch-trajectory.csv"), on_drawing.to_csv())?;
         published_sketch_poses = served_drawing_poses(&on_drawing);
+        warp_held = warp_held_share(&on_drawing);
         warp_poses = fetch_registration(&runtime, &client, &session.id, out_dir)?;
     }
     std::fs::write(
@@ -291,6 +293,7 @@ pub fn map_through_processes(
             recoveries: stopped.recoveries as u32,
             loop_closures: stopped.loop_closures as u32,
             loop_closures_rejected: stopped.loop_closures_rejected as u32,
+            warp_held,
         },
         final_pose,
         published_sketch_poses,

@@ -10,6 +10,7 @@ use crate::overlay;
 use crate::run_loop::map_in_process;
 use crate::run_method::RunMethod;
 use crate::sketch_truth::{fill_sketch_pose_scores, score_published_poses};
+use crate::warp_problem_file::WarpProblemFile;
 use anyhow::{Context, Result};
 use serde::Serialize;
 use sketchslam_engine::mapper::{Method, SketchPrior};
@@ -118,6 +119,10 @@ pub struct RunResult {
     /// Share of those poses within 1 m-equivalent of the truth.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub warp_pose_within_1m: Option<f64>,
+    /// `sketch` runs: the share of the served trajectory on the drawing where mapped walls
+    /// hold W (source `warp`), scenarios and datasets alike.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub warp_held: Option<f64>,
     /// Where the artifacts are.
     pub out_dir: PathBuf,
 }
@@ -184,6 +189,11 @@ pub fn run_in_process(
         max_scans,
         progress,
     )?;
+    if let Some(cfg) = sketch.filter(|_| method == Method::Sketch)
+        && let Some(problem) = run.mapper.warp_problem()
+    {
+        WarpProblemFile::new(&problem, &scenario.dir, &cfg.name).write(out_dir)?;
+    }
     let walls = WallGrid::from_image(
         &image::open(&scenario.world.image)?.to_luma8(),
         scenario.world.resolution_m,
@@ -291,6 +301,7 @@ pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
         warp_pose_median_m: None,
         warp_pose_p95_m: None,
         warp_pose_within_1m: None,
+        warp_held: None,
         out_dir: out_dir.to_path_buf(),
     })
 }

@@ -43,6 +43,8 @@ pub struct InProcessRun {
     /// `sketch` runs: every pose of the final trajectory carried onto the drawing through the
     /// warp fitted to the final map, stamp in seconds (empty when there was nothing to fit).
     pub warp_poses: Vec<(f64, SketchPose)>,
+    /// `sketch` runs: [`warp_held_share`] of the served trajectory on the drawing.
+    pub warp_held: Option<f64>,
 }
 
 /// Maps `steps` (a stream of `scan_count` scans) with `method` (and, for `sketch`, the
@@ -114,6 +116,7 @@ pub fn map_in_process(
     std::fs::write(out_dir.join(ONLINE_TRAJECTORY_FILE), trajectory_csv(&live))?;
     let mut sketch_poses = Vec::new();
     let mut warp_poses = Vec::new();
+    let mut warp_held = None;
     if method == Method::Sketch {
         // The whole trajectory on the drawing, through the service's own codec, so the file
         // is what `?frame=sketch&format=csv` serves once the session stopped: the final
@@ -122,6 +125,7 @@ pub fn map_in_process(
         let on_drawing = served_sketch_trajectory("in-process", &mapper, registration.as_ref());
         std::fs::write(out_dir.join("sketch-trajectory.csv"), on_drawing.to_csv())?;
         sketch_poses = served_drawing_poses(&on_drawing);
+        warp_held = warp_held_share(&on_drawing);
         if let Some(registration) = registration {
             let warp = registration.warp();
             warp_poses = mapper
@@ -148,7 +152,21 @@ pub fn map_in_process(
         scan_ms,
         sketch_poses,
         warp_poses,
+        warp_held,
     })
+}
+
+/// The share of a served trajectory on the drawing whose poses mapped walls hold W at
+/// (source `warp`, against `warp_extrapolated`, `mcl` and `odometry`): how much of the run
+/// the drawing is registered for. `None` for an empty trajectory.
+pub fn warp_held_share(on_drawing: &SketchTrajectoryResponse) -> Option<f64> {
+    let n = on_drawing.points.len();
+    let held = on_drawing
+        .points
+        .iter()
+        .filter(|p| p.source == DrawingPoseSource::Warp.as_str())
+        .count();
+    (n > 0).then(|| held as f64 / n as f64)
 }
 
 /// The final trajectory on the drawing through the fitted warp, written by `sketch` runs.
@@ -224,6 +242,7 @@ impl InProcessRun {
             recoveries: health.recoveries,
             loop_closures: health.loop_closures,
             loop_closures_rejected: health.loop_closures_rejected,
+            warp_held: self.warp_held,
         }
     }
 
@@ -262,6 +281,8 @@ pub struct RunFigures {
     pub loop_closures: u32,
     /// Matched loops refused.
     pub loop_closures_rejected: u32,
+    /// `sketch` runs: the share of the served trajectory where mapped walls hold W.
+    pub warp_held: Option<f64>,
 }
 
 impl RunFigures {
@@ -283,5 +304,6 @@ impl RunFigures {
         result.recoveries = self.recoveries;
         result.loop_closures = self.loop_closures;
         result.loop_closures_rejected = self.loop_closures_rejected;
+        result.warp_held = self.warp_held;
     }
 }

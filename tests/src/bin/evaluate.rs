@@ -471,7 +471,7 @@ fn print_relations(results: &[RunResult]) {
 
 fn print_table(results: &[RunResult]) {
     println!(
-        "{:<12} {:<9} {:<8} {:>7} {:>8} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5}",
+        "{:<12} {:<9} {:<8} {:>7} {:>8} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5} {:>6}",
         "scenario",
         "method",
         "sketch",
@@ -491,12 +491,13 @@ fn print_table(results: &[RunResult]) {
         "drw med",
         "drw≤1m",
         "W med",
-        "W≤1m"
+        "W≤1m",
+        "W held"
     );
     let opt = |v: Option<f64>, prec: usize| v.map_or("-".to_string(), |v| format!("{v:.prec$}"));
     for r in results {
         println!(
-            "{:<12} {:<9} {:<8} {} {:>8} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5}",
+            "{:<12} {:<9} {:<8} {} {:>8} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5} {:>6}",
             r.scenario,
             r.method,
             r.sketch.as_deref().unwrap_or("-"),
@@ -516,7 +517,8 @@ fn print_table(results: &[RunResult]) {
             opt(r.sketch_pose_median_m, 2),
             opt(r.sketch_pose_within_1m.map(|w| 100.0 * w), 0),
             opt(r.warp_pose_median_m, 2),
-            opt(r.warp_pose_within_1m.map(|w| 100.0 * w), 0)
+            opt(r.warp_pose_within_1m.map(|w| 100.0 * w), 0),
+            opt(r.warp_held.map(|w| 100.0 * w), 0)
         );
     }
     if let Some(r) = results.first() {
@@ -540,7 +542,8 @@ fn print_table(results: &[RunResult]) {
              drw≤1m: % of scans within 1 m of it (truth carried onto the drawing by \
              sketch-truth.toml; through the processes, the session's trajectory on the drawing); \
              W med, W≤1m: the same for the final trajectory carried onto the drawing through the \
-             warp fitted to the final map (through the processes, by the session's POST …/transform)"
+             warp fitted to the final map (through the processes, by the session's POST …/transform); \
+             W held: % of the served trajectory on the drawing where mapped walls hold W"
         );
     }
 }
