@@ -97,6 +97,15 @@ pub fn run_real_process(
             result.warp_pose_p95_m = Some(score.p95_m);
             result.warp_pose_within_1m = Some(score.within_1m);
         }
+        if let Some(score) = score_published_poses(
+            &scenario.dir,
+            &cfg.name,
+            &truth.poses,
+            &mapped.live_sketch_poses,
+        )? {
+            result.live_sketch_pose_median_m = Some(score.median_m);
+            result.live_sketch_pose_within_1m = Some(score.within_1m);
+        }
     }
     Ok(result)
 }
@@ -127,6 +136,9 @@ pub struct ProcessRun {
     /// `sketch` sessions: the final trajectory on the drawing through the session's warp
     /// (`POST …/transform`), stamp in seconds.
     pub warp_poses: Vec<(f64, SketchPose)>,
+    /// `sketch` sessions: each scan's pose on the drawing as the event stream first
+    /// published it (through the warp the session held then), stamp in seconds.
+    pub live_sketch_poses: Vec<(f64, SketchPose)>,
 }
 
 impl ProcessRun {
@@ -182,7 +194,7 @@ pub fn map_through_processes(
     // session stops.
     let mut events = runtime.block_on(client.events(&session.id))?;
     let recorder = runtime.spawn(async move {
-        let mut poses = Vec::new();
+        let (mut poses, mut on_drawing) = (Vec::new(), Vec::new());
         while let Ok(Some(event)) = events.next_event().await {
             if let SessionEvent::Pose(p) = event
                 && let Some(t_s) = p.stamp
@@ -191,9 +203,12 @@ pub fn map_through_processes(
                     t_s,
                     pose: Pose2::new(p.x, p.y, p.theta),
                 });
+                if let Some(sketch) = &p.sketch {
+                    on_drawing.push((t_s, sketch_pose_of(sketch)));
+                }
             }
         }
-        poses
+        (poses, on_drawing)
     });
 
     let total = max_scans.map_or(source.scans, |m| m.min(source.scans));
@@ -257,7 +272,7 @@ pub fn map_through_processes(
         pose.sketch.as_ref().map(sketch_pose_of),
     );
     // The event stream ends with the session.
-    let published_poses = runtime
+    let (published_poses, live_sketch_poses) = runtime
         .block_on(async { tokio::time::timeout(Duration::from_secs(20), recorder).await })
         .context("the session's event stream did not end after the stop")??;
     std::fs::write(
@@ -298,6 +313,7 @@ pub fn map_through_processes(
         final_pose,
         published_sketch_poses,
         warp_poses,
+        live_sketch_poses,
     })
 }
 

@@ -119,6 +119,14 @@ pub struct RunResult {
     /// Share of those poses within 1 m-equivalent of the truth.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub warp_pose_within_1m: Option<f64>,
+    /// Real-process `sketch` runs on a scenario with `sketch-truth.toml`: median error of
+    /// each scan's pose on the drawing as the event stream first published it (through the
+    /// warp the session held then, refitted as the map grew), meters at the nominal scale.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub live_sketch_pose_median_m: Option<f64>,
+    /// Share of those poses within 1 m-equivalent of the truth.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub live_sketch_pose_within_1m: Option<f64>,
     /// `sketch` runs: the share of the served trajectory on the drawing where mapped walls
     /// hold W (source `warp`), scenarios and datasets alike.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -302,6 +310,8 @@ pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
         warp_pose_p95_m: None,
         warp_pose_within_1m: None,
         warp_held: None,
+        live_sketch_pose_median_m: None,
+        live_sketch_pose_within_1m: None,
         out_dir: out_dir.to_path_buf(),
     })
 }

@@ -471,7 +471,7 @@ fn print_relations(results: &[RunResult]) {
 
 fn print_table(results: &[RunResult]) {
     println!(
-        "{:<12} {:<9} {:<8} {:>7} {:>8} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5} {:>6}",
+        "{:<12} {:<9} {:<8} {:>7} {:>8} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5} {:>6} {:>8} {:>7}",
         "scenario",
         "method",
         "sketch",
@@ -492,12 +492,14 @@ fn print_table(results: &[RunResult]) {
         "drw≤1m",
         "W med",
         "W≤1m",
-        "W held"
+        "W held",
+        "live drw",
+        "ldrw≤1m"
     );
     let opt = |v: Option<f64>, prec: usize| v.map_or("-".to_string(), |v| format!("{v:.prec$}"));
     for r in results {
         println!(
-            "{:<12} {:<9} {:<8} {} {:>8} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5} {:>6}",
+            "{:<12} {:<9} {:<8} {} {:>8} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5} {:>6} {:>8} {:>7}",
             r.scenario,
             r.method,
             r.sketch.as_deref().unwrap_or("-"),
@@ -518,7 +520,9 @@ fn print_table(results: &[RunResult]) {
             opt(r.sketch_pose_within_1m.map(|w| 100.0 * w), 0),
             opt(r.warp_pose_median_m, 2),
             opt(r.warp_pose_within_1m.map(|w| 100.0 * w), 0),
-            opt(r.warp_held.map(|w| 100.0 * w), 0)
+            opt(r.warp_held.map(|w| 100.0 * w), 0),
+            opt(r.live_sketch_pose_median_m, 2),
+            opt(r.live_sketch_pose_within_1m.map(|w| 100.0 * w), 0)
         );
     }
     if let Some(r) = results.first() {
@@ -543,7 +547,9 @@ fn print_table(results: &[RunResult]) {
              sketch-truth.toml; through the processes, the session's trajectory on the drawing); \
              W med, W≤1m: the same for the final trajectory carried onto the drawing through the \
              warp fitted to the final map (through the processes, by the session's POST …/transform); \
-             W held: % of the served trajectory on the drawing where mapped walls hold W"
+             W held: % of the served trajectory on the drawing where mapped walls hold W; \
+             live drw, ldrw≤1m (through the processes): the same as drw for each scan's pose on \
+             the drawing as the event stream first published it, through the warp held then"
         );
     }
 }
