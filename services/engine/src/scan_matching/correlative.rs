@@ -462,19 +462,9 @@ mod tests {
     fn a_corridor_is_uncertain_along_itself_only() {
         // Two parallel walls 2 m apart along x, 20 m long: a scan of their middle part
         // slides along x without losing score, not across.
-        let mut reference = Vec::new();
-        for i in 0..=1000 {
-            let x = -10.0 + 0.02 * i as f64;
-            reference.push(Point2::new(x, -1.0));
-            reference.push(Point2::new(x, 1.0));
-        }
+        let reference = corridor(-10.0, 10.0);
         let field = LikelihoodField::new(&reference, CorrelativeConfig::default());
-        let scan: Vec<Point2> = reference
-            .iter()
-            .copied()
-            .filter(|p| p.x.abs() < 3.0)
-            .collect();
-        let c = field.translation_covariance(&scan, &Pose2::IDENTITY, 1.0, 0.95);
+        let c = field.translation_covariance(&middle(&reference), &Pose2::IDENTITY, 1.0, 0.95);
         // Along x the plateau spans the whole ±1 m: variance of a uniform 2 m segment,
         // 2²/12 ≈ 0.33 m²; across it is one cell.
         assert!(c[0][0] > 0.25, "{c:?}");
@@ -485,6 +475,68 @@ mod tests {
         let c =
             field.translation_covariance(&voxel_filter(&room, 0.1), &Pose2::IDENTITY, 1.0, 0.95);
         assert!(c[0][0] < 0.01 && c[1][1] < 0.01, "{c:?}");
+    }
+
+    /// Points every 2 cm along the two walls y = ±1 of a corridor, from `x0` to `x1`.
+    fn corridor(x0: f64, x1: f64) -> Vec<Point2> {
+        let n = ((x1 - x0) / 0.02).round() as usize;
+        (0..=n)
+            .flat_map(|i| {
+                let x = x0 + 0.02 * i as f64;
+                [Point2::new(x, -1.0), Point2::new(x, 1.0)]
+            })
+            .collect()
+    }
+
+    /// The points of `reference` within 3 m of x = 0: a scan of a corridor's middle.
+    fn middle(reference: &[Point2]) -> Vec<Point2> {
+        reference
+            .iter()
+            .copied()
+            .filter(|p| p.x.abs() < 3.0)
+            .collect()
+    }
+
+    #[test]
+    fn a_hump_from_partial_overlap_has_a_top_wider_than_the_kernel() {
+        // The reference saw the corridor up to x = 2 m; the scan sees −3..3 m. Every shift
+        // toward −x overlaps more of it, up to −1 m where all of it overlaps: the top is a
+        // flat shelf from −1 m on, a metre from the truth (0), and at shift s > −1 a share
+        // (5 − s)/6 of the points overlaps, 0.95 of the best at s = −0.7. Nothing on it is
+        // a feature, and its plateau (≥ 0.8 m long, σ ≥ 0.8/√12 ≈ 0.23 m) is wider than
+        // the kernel (σ = 0.1 m); across, the walls pin it within the kernel.
+        let field = LikelihoodField::new(&corridor(-10.0, 2.0), CorrelativeConfig::default());
+        let scan = corridor(-3.0, 3.0);
+        let window = SearchWindow {
+            linear_m: 1.5,
+            angular_rad: 0.0,
+        };
+        let best = field.search(&scan, Pose2::IDENTITY, &window).unwrap();
+        assert!(best.pose.x <= -0.95, "{:?}", best.pose);
+        let c = field.translation_covariance(&scan, &best.pose, 1.5, 0.95);
+        assert!(c[0][0].sqrt() > 0.2, "{c:?}");
+        assert!(c[1][1].sqrt() < 0.05, "{c:?}");
+    }
+
+    #[test]
+    fn a_door_jamb_on_a_corridor_makes_a_top_narrower_than_the_kernel() {
+        // The same corridor seen whole, narrowed at x = 0 by a door frame (0.7 m stubs
+        // from both walls, 72 of the scan's 672 points, ~50 of them more than the kernel's
+        // reach from a wall): a shift δ along x costs those points 1 − exp(−δ²/2σ²) each,
+        // 2.9 % of the score at δ = 0.1 m and 5.9 % at 0.15 m, so the 95 % plateau
+        // reaches ±0.1 m and not ±0.15 m (measured σ 0.076 m, whole cells and their
+        // rounding included), narrower than the kernel. (With 0.5 m stubs, ~30 points
+        // off the walls, it reaches ±0.2 m, σ 0.115 m: a feature must be seen by more
+        // than a few percent of the scan to pin it.)
+        let mut reference = corridor(-10.0, 10.0);
+        for i in 0..=35 {
+            let y = 0.3 + 0.02 * i as f64;
+            reference.push(Point2::new(0.0, y));
+            reference.push(Point2::new(0.0, -y));
+        }
+        let field = LikelihoodField::new(&reference, CorrelativeConfig::default());
+        let c = field.translation_covariance(&middle(&reference), &Pose2::IDENTITY, 1.5, 0.95);
+        assert!(c[0][0].sqrt() < 0.1, "{c:?}");
     }
 
     #[test]
