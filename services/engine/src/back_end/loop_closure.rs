@@ -18,7 +18,8 @@
 //! likelihood kernel along one direction, no feature lies on it there, and where the scan
 //! also reaches beyond the reference along it (a corridor seen from its other end), its
 //! top is set by overlap, not by the place, and the edge can give that direction up
-//! ([`overlap_driven_direction`]; off by default, see its setting).
+//! (`overlap_driven_direction`; off by default, see
+//! `LoopClosureConfig::unpin_featureless_direction`).
 //! The mapper then re-anchors its trajectory and rebuilds its grid on the optimized keyframes.
 //!
 //! Pure: values in, values out.
@@ -68,7 +69,7 @@ pub struct LoopClosureConfig {
     pub plateau_fraction: f64,
     /// Give up a loop edge's weakest direction when the match's score plateau is wider
     /// there than the likelihood kernel (`correlative.sigma_m`) and the scan reaches
-    /// beyond the reference along it ([`overlap_driven_direction`]): such a hump then
+    /// beyond the reference along it (`overlap_driven_direction`): such a hump then
     /// holds the heading and the position across a corridor, not along it; the
     /// consistency tests still weigh the match as its plateau claims. Default false,
     /// measured 2026-12-03 (`graph`): paper-env2 0.041 → 0.007 m and school 0.077 →
