@@ -599,17 +599,22 @@ impl LoopCloser {
         // (a corridor seen from its other end): there it pins nothing, and the loops of
         // one pass share its bias, so they must not add up to a pull along the corridor.
         let claimed = loop_information(plateau + loop_noise, measurement.heading_rad, c)?;
-        let placed: Vec<Point2> = query
-            .iter()
-            .map(|p| found.pose.transform_point(p))
-            .collect();
-        let information = match overlap_driven_direction(plateau, sigma_sq, &local, &placed, c) {
-            Some(u) if c.unpin_featureless_direction => loop_information(
+        let unpinned = if c.unpin_featureless_direction {
+            let placed: Vec<Point2> = query
+                .iter()
+                .map(|p| found.pose.transform_point(p))
+                .collect();
+            overlap_driven_direction(plateau, sigma_sq, &local, &placed, c)
+        } else {
+            None
+        };
+        let information = match unpinned {
+            Some(u) => loop_information(
                 plateau + u * u.transpose() * UNPINNED_M2 + loop_noise,
                 measurement.heading_rad,
                 c,
             )?,
-            _ => claimed,
+            None => claimed,
         };
         let edge = Edge {
             from: old,
