@@ -170,6 +170,12 @@ impl LikelihoodField {
         sum / points.len() as f64
     }
 
+    /// The field's likelihood L at `p` (reference frame), 0 outside its cells.
+    pub fn likelihood(&self, p: Point2) -> f64 {
+        self.cell(p)
+            .map_or(0.0, |(x, y)| self.fine[y * self.width + x] as f64)
+    }
+
     fn cell(&self, p: Point2) -> Option<(usize, usize)> {
         let x = ((p.x - self.origin.x) / self.config.resolution_m).floor();
         let y = ((p.y - self.origin.y) / self.config.resolution_m).floor();

@@ -7,9 +7,12 @@
 //!   a scan does not measure (a corridor's axis) follow the odometry;
 //! - [`odometry_noise`]: how far the odometry's guess can be off, so whether ICP can start
 //!   from it;
-//! - [`correlative`]: Olson's correlative scan matching with branch and bound.
+//! - [`correlative`]: Olson's correlative scan matching with branch and bound;
+//! - [`observed_region`]: where a reference looked, and a correlative match re-placed by
+//!   its score over that region only (no pull toward more overlap).
 
 pub mod correlative;
 pub mod icp;
 pub mod motion_prior;
+pub mod observed_region;
 pub mod odometry_noise;
