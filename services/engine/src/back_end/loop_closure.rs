@@ -31,7 +31,7 @@ use crate::back_end::closure_consistency::{
 };
 use crate::back_end::pose_graph::{Edge, OptimizeConfig, PoseGraph};
 use crate::scan_matching::correlative::{
-    CorrelativeConfig, LikelihoodField, SearchWindow, voxel_filter,
+    CorrelativeConfig, LikelihoodField, SearchWindow, bounding_box, voxel_filter,
 };
 use crate::scan_matching::icp::{Icp, IcpConfig, IcpMode};
 use crate::scan_matching::observed_region::{ObservedRegion, View, search_observed};
@@ -700,15 +700,12 @@ impl LoopCloser {
     }
 }
 
-/// The box the finite `points` cover when placed at `guess`, widened by `margin_m`.
+/// The box the finite `points` cover when placed at `guess` (and `guess` itself), widened
+/// by `margin_m`.
 fn placed_box(points: &[Point2], guess: &Pose2, margin_m: f64) -> (Point2, Point2) {
-    let (mut lo, mut hi) = (guess.position(), guess.position());
-    for p in points.iter().map(|p| guess.transform_point(p)) {
-        if p.x.is_finite() && p.y.is_finite() {
-            lo = Point2::new(lo.x.min(p.x), lo.y.min(p.y));
-            hi = Point2::new(hi.x.max(p.x), hi.y.max(p.y));
-        }
-    }
+    let placed = points.iter().map(|p| guess.transform_point(p));
+    let (lo, hi) = bounding_box(std::iter::once(guess.position()).chain(placed))
+        .unwrap_or((guess.position(), guess.position()));
     let m = margin_m.max(0.0);
     (
         Point2::new(lo.x - m, lo.y - m),

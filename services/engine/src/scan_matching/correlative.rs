@@ -98,18 +98,8 @@ impl LikelihoodField {
         let res = config.resolution_m;
         let kernel_cells = (3.0 * config.sigma_m / res).ceil() as i64;
         let margin = (kernel_cells + 1) as f64 * res;
-        let (mut lo, mut hi) = (
-            Point2::new(f64::INFINITY, f64::INFINITY),
-            Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY),
-        );
-        for p in &finite {
-            lo = Point2::new(lo.x.min(p.x), lo.y.min(p.y));
-            hi = Point2::new(hi.x.max(p.x), hi.y.max(p.y));
-        }
-        if finite.is_empty() {
-            lo = Point2::new(0.0, 0.0);
-            hi = lo;
-        }
+        let (lo, hi) = bounding_box(finite.iter().copied())
+            .unwrap_or((Point2::new(0.0, 0.0), Point2::new(0.0, 0.0)));
         let origin = Point2::new(lo.x - margin, lo.y - margin);
         let width = (((hi.x - lo.x + 2.0 * margin) / res).ceil() as usize).max(1);
         let height = (((hi.y - lo.y + 2.0 * margin) / res).ceil() as usize).max(1);
@@ -311,7 +301,6 @@ impl LikelihoodField {
         fraction: f64,
     ) -> [[f64; 2]; 2] {
         let res = self.config.resolution_m;
-        let cell_var = res * res / 12.0;
         let cells = self.cells_at(points, best);
         let reach = (radius_m.max(0.0) / res).ceil() as i64;
         let mut scores = Vec::new();
@@ -329,19 +318,42 @@ impl LikelihoodField {
             .filter(|(_, _, s)| top > 0.0 && *s >= threshold)
             .map(|&(dx, dy, _)| (dx as f64 * res, dy as f64 * res))
             .collect();
-        let n = near.len().max(1) as f64;
-        let (mx, my) = near.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0, a.1 + p.1));
-        let (mx, my) = (mx / n, my / n);
-        let mut c = [[cell_var, 0.0], [0.0, cell_var]];
-        for (x, y) in &near {
-            let (ex, ey) = (x - mx, y - my);
-            c[0][0] += ex * ex / n;
-            c[0][1] += ex * ey / n;
-            c[1][1] += ey * ey / n;
-        }
-        c[1][0] = c[0][1];
-        c
+        plateau_spread(&near, res).1
     }
+}
+
+/// The spread of a score plateau: the mean of its translations `near` (m, uniformly
+/// weighted) and their covariance (m², x then y) plus one cell's own variance r²/12 for
+/// cells of `res` m. O(n).
+pub fn plateau_spread(near: &[(f64, f64)], res: f64) -> ((f64, f64), [[f64; 2]; 2]) {
+    let cell_var = res * res / 12.0;
+    let n = near.len().max(1) as f64;
+    let (mx, my) = near.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0, a.1 + p.1));
+    let (mx, my) = (mx / n, my / n);
+    let mut c = [[cell_var, 0.0], [0.0, cell_var]];
+    for (x, y) in near {
+        let (ex, ey) = (x - mx, y - my);
+        c[0][0] += ex * ex / n;
+        c[0][1] += ex * ey / n;
+        c[1][1] += ey * ey / n;
+    }
+    c[1][0] = c[0][1];
+    ((mx, my), c)
+}
+
+/// The smallest box holding the finite `points`, as (lower-left, upper-right) corners;
+/// `None` without a finite point. O(n).
+pub fn bounding_box(points: impl IntoIterator<Item = Point2>) -> Option<(Point2, Point2)> {
+    points
+        .into_iter()
+        .filter(|p| p.x.is_finite() && p.y.is_finite())
+        .fold(None, |b, p| {
+            let (lo, hi) = b.unwrap_or((p, p));
+            Some((
+                Point2::new(lo.x.min(p.x), lo.y.min(p.y)),
+                Point2::new(hi.x.max(p.x), hi.y.max(p.y)),
+            ))
+        })
 }
 
 /// `out[c] = max(table[c'])` over the f×f cells c' from c (c'.x ∈ [c.x, c.x+f), same in y):
@@ -381,7 +393,7 @@ pub fn voxel_filter(points: &[Point2], cell_m: f64) -> Vec<Point2> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// Points every 2 cm along the walls of an L-shaped room corner set: a 6 × 4 m box
@@ -484,7 +496,7 @@ mod tests {
     }
 
     /// Points every 2 cm along the two walls y = ±1 of a corridor, from `x0` to `x1`.
-    fn corridor(x0: f64, x1: f64) -> Vec<Point2> {
+    pub(crate) fn corridor(x0: f64, x1: f64) -> Vec<Point2> {
         let n = ((x1 - x0) / 0.02).round() as usize;
         (0..=n)
             .flat_map(|i| {
@@ -492,6 +504,20 @@ mod tests {
                 [Point2::new(x, -1.0), Point2::new(x, 1.0)]
             })
             .collect()
+    }
+
+    /// Door frames: 0.7 m stubs, a point every 2 cm, from both walls of [`corridor`] at
+    /// each of `xs`.
+    pub(crate) fn door_frames(xs: &[f64]) -> Vec<Point2> {
+        let mut pts = Vec::new();
+        for &x in xs {
+            for i in 0..=35 {
+                let y = 0.3 + 0.02 * i as f64;
+                pts.push(Point2::new(x, y));
+                pts.push(Point2::new(x, -y));
+            }
+        }
+        pts
     }
 
     /// The points of `reference` within 3 m of x = 0: a scan of a corridor's middle.
@@ -535,11 +561,7 @@ mod tests {
         // off the walls, it reaches ±0.2 m, σ 0.115 m: a feature must be seen by more
         // than a few percent of the scan to pin it.)
         let mut reference = corridor(-10.0, 10.0);
-        for i in 0..=35 {
-            let y = 0.3 + 0.02 * i as f64;
-            reference.push(Point2::new(0.0, y));
-            reference.push(Point2::new(0.0, -y));
-        }
+        reference.extend(door_frames(&[0.0]));
         let field = LikelihoodField::new(&reference, CorrelativeConfig::default());
         let c = field.translation_covariance(&middle(&reference), &Pose2::IDENTITY, 1.5, 0.95);
         assert!(c[0][0].sqrt() < 0.1, "{c:?}");

@@ -35,7 +35,7 @@
 //! Cost: the region is O(cells · views) bearings (cells of `cell_m`); a search is
 //! O(w² · n) for w² shifts and n points.
 
-use super::correlative::LikelihoodField;
+use super::correlative::{LikelihoodField, bounding_box, plateau_spread};
 use sketchslam_types::{Point2, Pose2};
 
 /// A pose is only re-placed where it puts at least this many points where the reference
@@ -73,16 +73,12 @@ impl ObservedRegion {
     /// `[lo, hi]` (where the queries will land); outside it nothing counts as seen.
     pub fn new(views: &[View], lo: Point2, hi: Point2, cell_m: f64) -> Self {
         let cell_m = cell_m.max(0.01);
-        let (mut lo, mut hi) = (lo, hi);
-        for v in views {
-            for p in v.points.iter().chain(std::iter::once(&v.sensor)) {
-                if p.x.is_finite() && p.y.is_finite() {
-                    lo = Point2::new(lo.x.min(p.x), lo.y.min(p.y));
-                    hi = Point2::new(hi.x.max(p.x), hi.y.max(p.y));
-                }
-            }
-        }
-        if !(lo.x.is_finite() && lo.y.is_finite() && hi.x.is_finite() && hi.y.is_finite()) {
+        let covered = [lo, hi].into_iter().chain(
+            views
+                .iter()
+                .flat_map(|v| v.points.iter().copied().chain(std::iter::once(v.sensor))),
+        );
+        let Some((lo, hi)) = bounding_box(covered) else {
             return Self {
                 origin: Point2::new(0.0, 0.0),
                 cell_m,
@@ -90,7 +86,7 @@ impl ObservedRegion {
                 height: 0,
                 seen: Vec::new(),
             };
-        }
+        };
         let origin = Point2::new(lo.x - cell_m, lo.y - cell_m);
         let width = ((hi.x - lo.x) / cell_m).ceil() as usize + 3;
         let height = ((hi.y - lo.y) / cell_m).ceil() as usize + 3;
@@ -195,8 +191,6 @@ pub struct ObservedMatch {
     pub pose: Pose2,
     /// The best `S_obs`: the mean likelihood of the points placed where the reference looked.
     pub score: f64,
-    /// Share of the scan's points placed where the reference looked, at the best.
-    pub seen_share: f64,
     /// Covariance (m², x then y) of the translations whose `S_obs` reaches `fraction` of
     /// the best, plus one cell's own variance r²/12.
     pub covariance: [[f64; 2]; 2],
@@ -247,10 +241,10 @@ pub fn search_observed(
     let most_seen = grid.iter().map(|g| g.4).max().unwrap_or(0);
     let least_seen = MIN_SEEN_POINTS.max(most_seen.div_ceil(4));
     let least_plain = min_plain_score * placed.len() as f64;
-    let candidates: Vec<(f64, f64, f64, usize)> = grid
+    let candidates: Vec<(f64, f64, f64)> = grid
         .into_iter()
         .filter(|g| g.2 >= least_plain && g.4 >= least_seen)
-        .map(|(dx, dy, _, sum, seen)| (dx, dy, sum / seen as f64, seen))
+        .map(|(dx, dy, _, sum, seen)| (dx, dy, sum / seen as f64))
         .collect();
     let best = candidates
         .iter()
@@ -263,22 +257,10 @@ pub fn search_observed(
         .filter(|c| c.2 >= threshold)
         .map(|c| (c.0, c.1))
         .collect();
-    let n = near.len().max(1) as f64;
-    let (mx, my) = near.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0, a.1 + p.1));
-    let (mx, my) = (mx / n, my / n);
-    let cell_var = res * res / 12.0;
-    let mut covariance = [[cell_var, 0.0], [0.0, cell_var]];
-    for (x, y) in &near {
-        let (ex, ey) = (x - mx, y - my);
-        covariance[0][0] += ex * ex / n;
-        covariance[0][1] += ex * ey / n;
-        covariance[1][1] += ey * ey / n;
-    }
-    covariance[1][0] = covariance[0][1];
+    let ((mx, my), covariance) = plateau_spread(&near, res);
     Some(ObservedMatch {
         pose: Pose2::new(around.x + mx, around.y + my, around.heading_rad),
         score: best.2,
-        seen_share: best.3 as f64 / placed.len() as f64,
         covariance,
     })
 }
@@ -286,30 +268,19 @@ pub fn search_observed(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scan_matching::correlative::tests::{corridor, door_frames};
     use crate::scan_matching::correlative::{CorrelativeConfig, SearchWindow};
 
-    /// Points every 2 cm along the walls y = ±1 of a corridor from `x0` to `x1`.
-    fn walls(x0: f64, x1: f64) -> Vec<Point2> {
-        let n = ((x1 - x0) / 0.02).round() as usize;
-        (0..=n)
-            .flat_map(|i| {
-                let x = x0 + 0.02 * i as f64;
-                [Point2::new(x, -1.0), Point2::new(x, 1.0)]
-            })
-            .collect()
-    }
+    /// The corridor tests' cells: the corridor's 24 m and the window's reach around it.
+    const CORRIDOR_BOX: (Point2, Point2) = (Point2::new(-16.0, -4.0), Point2::new(16.0, 4.0));
 
-    /// Door frames: 0.7 m stubs from both walls at each of `xs`.
-    fn frames(xs: &[f64]) -> Vec<Point2> {
-        let mut pts = Vec::new();
-        for &x in xs {
-            for i in 0..=35 {
-                let y = 0.3 + 0.02 * i as f64;
-                pts.push(Point2::new(x, y));
-                pts.push(Point2::new(x, -y));
-            }
-        }
-        pts
+    /// The region seen by one view from the origin, on 0.2 m cells covering `[lo, hi]`.
+    fn seen_from_origin(points: &[Point2], (lo, hi): (Point2, Point2)) -> ObservedRegion {
+        let view = View {
+            sensor: Point2::new(0.0, 0.0),
+            points,
+        };
+        ObservedRegion::new(&[view], lo, hi, 0.2)
     }
 
     #[test]
@@ -323,13 +294,8 @@ mod tests {
                 Point2::new(5.0 * a.cos(), 5.0 * a.sin())
             })
             .collect();
-        let view = View {
-            sensor: Point2::new(0.0, 0.0),
-            points: &points,
-        };
-        let lo = Point2::new(-20.0, -20.0);
-        let hi = Point2::new(20.0, 20.0);
-        let region = ObservedRegion::new(&[view], lo, hi, 0.2);
+        let cells = (Point2::new(-20.0, -20.0), Point2::new(20.0, 20.0));
+        let region = seen_from_origin(&points, cells);
         assert!(region.contains(Point2::new(2.0, 0.0)), "free, ahead");
         assert!(region.contains(Point2::new(5.0, 0.0)), "the wall");
         assert!(region.contains(Point2::new(12.0, 3.0)), "hidden behind it");
@@ -350,30 +316,14 @@ mod tests {
             .copied()
             .filter(|p| !(10.0..=30.0).contains(&p.y.atan2(p.x).to_degrees()))
             .collect();
-        let region = ObservedRegion::new(
-            &[View {
-                sensor: Point2::new(0.0, 0.0),
-                points: &open,
-            }],
-            lo,
-            hi,
-            0.2,
-        );
+        let region = seen_from_origin(&open, cells);
         let at = |d: f64, r: f64| Point2::new(r * d.to_radians().cos(), r * d.to_radians().sin());
         assert!(region.contains(at(20.0, 3.0)), "free within range");
         assert!(!region.contains(at(20.0, 8.0)), "beyond the range");
         assert!(region.contains(at(40.0, 8.0)), "hidden behind a return");
         // One missing return between two is no hole.
         let holed: Vec<Point2> = points.iter().copied().step_by(2).collect();
-        let region = ObservedRegion::new(
-            &[View {
-                sensor: Point2::new(0.0, 0.0),
-                points: &holed,
-            }],
-            lo,
-            hi,
-            0.2,
-        );
+        let region = seen_from_origin(&holed, cells);
         assert!((-130..=130).all(|d| {
             let a = (d as f64 + 0.5).to_radians();
             region.contains(Point2::new(8.0 * a.cos(), 8.0 * a.sin()))
@@ -389,10 +339,10 @@ mod tests {
         // saw (its walls west of −1 m score 0 at the truth) and its top is metres east;
         // over the seen region only, the walls score alike everywhere and the frame at
         // 0.5 m, which both views saw, holds the scan at the truth.
-        let mut reference = walls(-1.0, 12.0);
-        reference.extend(frames(&[0.5, 9.0]));
-        let mut scan = walls(-12.0, 1.0);
-        scan.extend(frames(&[0.5]));
+        let mut reference = corridor(-1.0, 12.0);
+        reference.extend(door_frames(&[0.5, 9.0]));
+        let mut scan = corridor(-12.0, 1.0);
+        scan.extend(door_frames(&[0.5]));
         let field = LikelihoodField::new(&reference, CorrelativeConfig::default());
         let window = SearchWindow {
             linear_m: 3.0,
@@ -400,13 +350,7 @@ mod tests {
         };
         let plain = field.search(&scan, Pose2::IDENTITY, &window).unwrap();
         assert!(plain.pose.x > 1.5, "plain top {:?}", plain.pose);
-        let view = View {
-            sensor: Point2::new(0.0, 0.0),
-            points: &reference,
-        };
-        let lo = Point2::new(-16.0, -4.0);
-        let hi = Point2::new(16.0, 4.0);
-        let region = ObservedRegion::new(&[view], lo, hi, 0.2);
+        let region = seen_from_origin(&reference, CORRIDOR_BOX);
         let around = Pose2::new(1.0, 0.0, plain.pose.heading_rad);
         let m = search_observed(&field, &region, &scan, &around, 3.0, 0.0, 0.95).unwrap();
         let off_m = m.pose.x - 0.0;
@@ -421,20 +365,12 @@ mod tests {
         // The opposite pass again: at the truth the plain score is low (most of the scan
         // lies where the reference never looked). Asking every candidate to reach a plain
         // score above the truth's keeps the answer among the poses the overlap supports.
-        let mut reference = walls(-1.0, 12.0);
-        reference.extend(frames(&[0.5, 9.0]));
-        let mut scan = walls(-12.0, 1.0);
-        scan.extend(frames(&[0.5]));
+        let mut reference = corridor(-1.0, 12.0);
+        reference.extend(door_frames(&[0.5, 9.0]));
+        let mut scan = corridor(-12.0, 1.0);
+        scan.extend(door_frames(&[0.5]));
         let field = LikelihoodField::new(&reference, CorrelativeConfig::default());
-        let region = ObservedRegion::new(
-            &[View {
-                sensor: Point2::new(0.0, 0.0),
-                points: &reference,
-            }],
-            Point2::new(-16.0, -4.0),
-            Point2::new(16.0, 4.0),
-            0.2,
-        );
+        let region = seen_from_origin(&reference, CORRIDOR_BOX);
         let at_truth = field.score(&scan, &Pose2::IDENTITY);
         let least = at_truth + 0.05;
         let around = Pose2::new(1.0, 0.0, 0.0);
@@ -453,18 +389,10 @@ mod tests {
         // The same passes with no frame in the overlap: nothing pins the scan along the
         // corridor, and S_obs says so (σ along ≫ the kernel) instead of a top at the
         // overlap.
-        let reference = walls(-1.0, 12.0);
-        let scan = walls(-12.0, 1.0);
+        let reference = corridor(-1.0, 12.0);
+        let scan = corridor(-12.0, 1.0);
         let field = LikelihoodField::new(&reference, CorrelativeConfig::default());
-        let region = ObservedRegion::new(
-            &[View {
-                sensor: Point2::new(0.0, 0.0),
-                points: &reference,
-            }],
-            Point2::new(-16.0, -4.0),
-            Point2::new(16.0, 4.0),
-            0.2,
-        );
+        let region = seen_from_origin(&reference, CORRIDOR_BOX);
         let top = Pose2::new(1.0, 0.0, 0.0);
         let m = search_observed(&field, &region, &scan, &top, 3.0, 0.0, 0.95).unwrap();
         assert!(m.covariance[0][0].sqrt() > 0.5, "{:?}", m.covariance);
@@ -473,10 +401,10 @@ mod tests {
 
     #[test]
     fn a_scan_the_reference_never_saw_is_not_placed() {
-        let reference = walls(-1.0, 12.0);
+        let reference = corridor(-1.0, 12.0);
         let field = LikelihoodField::new(&reference, CorrelativeConfig::default());
         let region = ObservedRegion::new(&[], Point2::new(-5.0, -5.0), Point2::new(5.0, 5.0), 0.2);
-        let scan = walls(-3.0, 3.0);
+        let scan = corridor(-3.0, 3.0);
         assert!(
             search_observed(&field, &region, &scan, &Pose2::IDENTITY, 1.0, 0.0, 0.95).is_none()
         );
