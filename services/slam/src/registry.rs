@@ -76,10 +76,11 @@ impl Registry {
     pub fn open(config: RegistryConfig) -> Result<Registry, RuntimeError> {
         let ipc = IpcConfig::new(&config.ipc_prefix)
             .map_err(|e| RuntimeError::Config(format!("ipc prefix: {e}")))?;
-        let storage = Storage::open(&config.data_dir).map_err(|e| RuntimeError::DataDir {
-            path: config.data_dir.clone(),
-            source: e,
-        })?;
+        let (storage, leftovers) =
+            Storage::open(&config.data_dir).map_err(|e| RuntimeError::DataDir {
+                path: config.data_dir.clone(),
+                source: e,
+            })?;
         let data_dir_err = |e| RuntimeError::DataDir {
             path: config.data_dir.clone(),
             source: e,
@@ -110,6 +111,8 @@ impl Registry {
             data_dir = %config.data_dir.display(),
             sketches = sketches.len(),
             sessions = sessions.entries.len(),
+            temp_files_removed = leftovers.temp_files_removed.len(),
+            incomplete_moved_aside = leftovers.incomplete_moved.len(),
             "registry opened"
         );
         Ok(Registry {
@@ -390,10 +393,11 @@ impl Backend for Registry {
             Ok(session) => session,
             Err(meta) => return Ok(meta.info),
         };
-        let (meta, files) = session.finish();
-        self.storage
-            .save_session(&meta, &files)
-            .map_err(|e| ApiError::internal(format!("storing session {id}: {e}")))?;
+        let meta = session.stop_with(|meta, files| {
+            self.storage
+                .save_session(meta, files)
+                .map_err(|e| ApiError::internal(format!("storing session {id}: {e}")))
+        })?;
         let info = meta.info.clone();
         lock(&self.sessions)
             .entries

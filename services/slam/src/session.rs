@@ -106,6 +106,8 @@ pub struct Session {
     threads: Mutex<Option<(Intake, JoinHandle<()>)>>,
     /// The warp worker and the flag that stops it.
     warp_worker: Mutex<Option<(Arc<AtomicBool>, JoinHandle<()>)>>,
+    /// The answer of the one stop ([`Session::stop_with`]), once given.
+    stopped: Mutex<Option<Result<SessionMeta, ApiError>>>,
 }
 
 impl Session {
@@ -157,7 +159,26 @@ impl Session {
             mapper,
             threads: Mutex::new(Some((intake, thread))),
             warp_worker: Mutex::new(warp_worker),
+            stopped: Mutex::new(None),
         })
+    }
+
+    /// Stops the session once: the first caller finishes it ([`Session::finish`]) and hands
+    /// its final status and files to `store`; every caller, concurrent or later, gets that
+    /// one answer (the others wait for it). Two stops never save twice, so they never
+    /// write the same files at once.
+    pub fn stop_with(
+        &self,
+        store: impl FnOnce(&SessionMeta, &SessionFiles) -> Result<(), ApiError>,
+    ) -> Result<SessionMeta, ApiError> {
+        let mut slot = lock(&self.stopped);
+        if let Some(answer) = slot.as_ref() {
+            return answer.clone();
+        }
+        let (meta, files) = self.finish();
+        let answer = store(&meta, &files).map(|()| meta);
+        *slot = Some(answer.clone());
+        answer
     }
 
     /// The current status.
@@ -300,8 +321,9 @@ impl Session {
     }
 
     /// Stops the intake (it drains what arrived), lets the mapper process everything
-    /// received, and returns the final status, pose and files. Idempotent.
-    pub fn finish(&self) -> (SessionMeta, SessionFiles) {
+    /// received, and returns the final status, pose and files ([`Session::stop_with`] calls
+    /// it once).
+    fn finish(&self) -> (SessionMeta, SessionFiles) {
         if let Some((intake, thread)) = lock(&self.threads).take() {
             intake.stop();
             if thread.join().is_err() {

@@ -10,11 +10,16 @@
 //! <data-dir>/sessions/<id>/meta.json  final status and pose (written last)
 //! ```
 //!
-//! Every file is written to a temporary name and renamed, and `meta.json` last, so a crash
-//! leaves either a complete entry or one that is skipped (with a warning) on load.
+//! Every file is written to a temporary file of its own (a unique name, so two writers never
+//! share one), flushed to disk and renamed over its final name; the folder is flushed after
+//! the renames, and `meta.json` is written last. A crash therefore leaves either a complete
+//! entry or one without `meta.json`, and perhaps temporary files. [`Storage::open`] cleans
+//! both up and reports them: temporary files are removed, and an entry without a readable
+//! `meta.json` is moved to `<data-dir>/incomplete/` (kept for a person to look at, never
+//! served).
 
 use std::fs;
-use std::io;
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -91,21 +96,119 @@ fn invalid_id(id: &str) -> io::Error {
     io::Error::new(io::ErrorKind::InvalidInput, format!("unsafe id {id:?}"))
 }
 
-/// Writes `bytes` to `path` through a temporary file and a rename.
+/// Temporary files start with this, so that a crash's leftovers can be told from data.
+const TEMP_PREFIX: &str = ".sketchslam-tmp-";
+
+/// Writes `bytes` to `path` through a temporary file of its own in the same folder, flushed
+/// to disk before it is renamed over `path`: a reader sees the old file or the new one,
+/// never a mix, and concurrent writers of one folder never write into each other's file.
+/// The folder itself is flushed by the caller ([`sync_dir`]) once its files are renamed.
 fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
-    let tmp = path.with_extension("tmp");
-    fs::write(&tmp, bytes)?;
-    fs::rename(&tmp, path)
+    let dir = path
+        .parent()
+        .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "a path without a folder"))?;
+    let mut tmp = tempfile::Builder::new()
+        .prefix(TEMP_PREFIX)
+        .tempfile_in(dir)?;
+    tmp.write_all(bytes)?;
+    tmp.as_file().sync_all()?;
+    tmp.persist(path).map_err(|e| e.error)?;
+    Ok(())
+}
+
+/// Flushes a folder's entries (the renames into it) to disk.
+fn sync_dir(dir: &Path) -> io::Result<()> {
+    fs::File::open(dir)?.sync_all()
+}
+
+/// What [`Storage::open`] found of an earlier crash and cleaned up.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Leftovers {
+    /// Temporary files removed (paths as they were).
+    pub temp_files_removed: Vec<PathBuf>,
+    /// Entries without a readable `meta.json`, moved from where they were to here.
+    pub incomplete_moved: Vec<(PathBuf, PathBuf)>,
+}
+
+impl Leftovers {
+    /// True when nothing needed cleaning.
+    pub fn is_empty(&self) -> bool {
+        self.temp_files_removed.is_empty() && self.incomplete_moved.is_empty()
+    }
+}
+
+/// True for a file name a crashed write may have left: our temporary files, and the
+/// `*.tmp` names of versions before 2026-12-03.
+fn is_temp_name(name: &str) -> bool {
+    name.starts_with(TEMP_PREFIX) || name.ends_with(".tmp")
 }
 
 impl Storage {
-    /// Opens (creating it if needed) the data dir at `root`.
-    pub fn open(root: &Path) -> io::Result<Self> {
+    /// Opens (creating it if needed) the data dir at `root`, and cleans up what a crash left
+    /// in it (module doc), logging each item and returning them.
+    pub fn open(root: &Path) -> io::Result<(Self, Leftovers)> {
         fs::create_dir_all(root.join("sketches"))?;
         fs::create_dir_all(root.join("sessions"))?;
-        Ok(Self {
+        let storage = Self {
             root: root.to_path_buf(),
-        })
+        };
+        let leftovers = storage.clean_leftovers()?;
+        for path in &leftovers.temp_files_removed {
+            tracing::warn!(file = %path.display(), "removed a half-written temporary file");
+        }
+        for (from, to) in &leftovers.incomplete_moved {
+            tracing::warn!(
+                from = %from.display(),
+                to = %to.display(),
+                "moved an entry without a readable meta.json aside"
+            );
+        }
+        Ok((storage, leftovers))
+    }
+
+    /// Removes temporary files from every entry and moves entries without a readable
+    /// `meta.json` to `incomplete/<kind>-<folder>`.
+    fn clean_leftovers(&self) -> io::Result<Leftovers> {
+        let mut out = Leftovers::default();
+        for kind in ["sketches", "sessions"] {
+            let parent = self.root.join(kind);
+            for entry in fs::read_dir(&parent)? {
+                let entry = entry?;
+                let path = entry.path();
+                let name = entry.file_name().to_string_lossy().into_owned();
+                if !entry.file_type()?.is_dir() {
+                    if is_temp_name(&name) {
+                        fs::remove_file(&path)?;
+                        out.temp_files_removed.push(path);
+                    }
+                    continue;
+                }
+                for file in fs::read_dir(&path)? {
+                    let file = file?;
+                    if is_temp_name(&file.file_name().to_string_lossy()) {
+                        fs::remove_file(file.path())?;
+                        out.temp_files_removed.push(file.path());
+                    }
+                }
+                let readable = fs::read(path.join("meta.json"))
+                    .ok()
+                    .is_some_and(|m| serde_json::from_slice::<serde_json::Value>(&m).is_ok());
+                if !readable {
+                    let aside = self.root.join("incomplete");
+                    fs::create_dir_all(&aside)?;
+                    let mut to = aside.join(format!("{kind}-{name}"));
+                    let mut n = 1;
+                    while to.exists() {
+                        n += 1;
+                        to = aside.join(format!("{kind}-{name}-{n}"));
+                    }
+                    fs::rename(&path, &to)?;
+                    out.incomplete_moved.push((path, to));
+                }
+            }
+            sync_dir(&parent)?;
+        }
+        Ok(out)
     }
 
     /// The data dir.
@@ -133,9 +236,12 @@ impl Storage {
     pub fn save_sketch(&self, meta: &SketchMeta, image: &[u8]) -> io::Result<()> {
         let dir = self.sketch_dir(&meta.id)?;
         fs::create_dir_all(&dir)?;
+        sync_dir(&self.root.join("sketches"))?;
         write_atomic(&dir.join("image"), image)?;
+        sync_dir(&dir)?;
         let json = serde_json::to_vec_pretty(meta).map_err(io::Error::other)?;
-        write_atomic(&dir.join("meta.json"), &json)
+        write_atomic(&dir.join("meta.json"), &json)?;
+        sync_dir(&dir)
     }
 
     /// Removes a stored sketch.
@@ -176,6 +282,7 @@ impl Storage {
     pub fn save_session(&self, meta: &SessionMeta, files: &SessionFiles) -> io::Result<()> {
         let dir = self.session_dir(&meta.info.id)?;
         fs::create_dir_all(&dir)?;
+        sync_dir(&self.root.join("sessions"))?;
         write_atomic(&dir.join("map.pgm"), &files.map_pgm)?;
         write_atomic(&dir.join("map.yaml"), files.map_yaml.as_bytes())?;
         write_atomic(&dir.join("map.png"), &files.map_png)?;
@@ -190,8 +297,11 @@ impl Storage {
             write_atomic(&dir.join("sketch-in-map.json"), &r.sketch_in_map_json)?;
             write_atomic(&dir.join("sketch-in-map.png"), &r.sketch_in_map_png)?;
         }
+        // Every file is on disk before the meta.json that makes the entry complete.
+        sync_dir(&dir)?;
         let json = serde_json::to_vec_pretty(meta).map_err(io::Error::other)?;
-        write_atomic(&dir.join("meta.json"), &json)
+        write_atomic(&dir.join("meta.json"), &json)?;
+        sync_dir(&dir)
     }
 
     /// Every complete stopped session; incomplete ones are skipped.
@@ -219,5 +329,101 @@ impl Storage {
     /// One file of a stopped session (`map.png`, `trajectory.csv`, ...).
     pub fn read_session_file(&self, id: &str, name: &str) -> io::Result<Vec<u8>> {
         fs::read(self.session_dir(id)?.join(name))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fresh data dir under the system's temporary folder.
+    fn data_dir(name: &str) -> tempfile::TempDir {
+        tempfile::Builder::new()
+            .prefix(&format!("sketchslam-storage-{name}-"))
+            .tempdir()
+            .unwrap()
+    }
+
+    fn sketch(id: &str) -> SketchMeta {
+        SketchMeta {
+            id: id.into(),
+            name: Some("A".into()),
+            created_unix_ms: 1,
+        }
+    }
+
+    #[test]
+    fn concurrent_writers_of_one_folder_never_mix_their_files() {
+        // Before 2026-12-03 every file of a folder went through one `<stem>.tmp`: two
+        // saves at once wrote PNG bytes into map.yaml. Twelve writers, four files each.
+        let dir = data_dir("concurrent");
+        let folder = dir.path().join("entry");
+        fs::create_dir_all(&folder).unwrap();
+        let names = ["map.pgm", "map.yaml", "map.png", "map.json"];
+        std::thread::scope(|scope| {
+            for _ in 0..12 {
+                scope.spawn(|| {
+                    for name in names {
+                        let bytes = name.repeat(20_000);
+                        write_atomic(&folder.join(name), bytes.as_bytes()).unwrap();
+                    }
+                });
+            }
+        });
+        for name in names {
+            let bytes = fs::read(folder.join(name)).unwrap();
+            assert_eq!(bytes, name.repeat(20_000).into_bytes(), "{name}");
+        }
+        // No temporary file is left behind.
+        assert_eq!(fs::read_dir(&folder).unwrap().count(), names.len());
+    }
+
+    #[test]
+    fn opening_cleans_what_a_crash_left_and_keeps_what_was_complete() {
+        let dir = data_dir("leftovers");
+        let (storage, clean) = Storage::open(dir.path()).unwrap();
+        assert!(clean.is_empty());
+        storage
+            .save_sketch(&sketch("kept"), b"image bytes")
+            .unwrap();
+        // A crash during writes: a temporary file in a complete entry, an old-style
+        // `map.tmp`, and a session whose meta.json was never written.
+        let kept = dir.path().join("sketches/kept");
+        fs::write(kept.join(format!("{TEMP_PREFIX}x1")), b"half").unwrap();
+        let torn = dir.path().join("sessions/torn");
+        fs::create_dir_all(&torn).unwrap();
+        fs::write(torn.join("map.pgm"), b"P5 half a map").unwrap();
+        fs::write(torn.join("map.tmp"), b"half").unwrap();
+        // A meta.json cut short is not readable either.
+        let cut = dir.path().join("sketches/cut");
+        fs::create_dir_all(&cut).unwrap();
+        fs::write(cut.join("meta.json"), b"{\"id\": \"cu").unwrap();
+
+        let (storage, clean) = Storage::open(dir.path()).unwrap();
+        assert_eq!(clean.temp_files_removed.len(), 2, "{clean:?}");
+        assert!(clean.temp_files_removed.iter().all(|p| !p.exists()));
+        let moved: Vec<&Path> = clean
+            .incomplete_moved
+            .iter()
+            .map(|(_, to)| to.as_path())
+            .collect();
+        assert_eq!(moved.len(), 2, "{clean:?}");
+        let aside = dir.path().join("incomplete");
+        assert!(moved.contains(&aside.join("sessions-torn").as_path()));
+        assert!(moved.contains(&aside.join("sketches-cut").as_path()));
+        // Moved aside with what it held, not deleted.
+        assert_eq!(
+            fs::read(aside.join("sessions-torn/map.pgm")).unwrap(),
+            b"P5 half a map"
+        );
+        assert!(!torn.exists() && !cut.exists());
+        // The complete sketch is intact and the only one listed.
+        let sketches = storage.load_sketches().unwrap();
+        assert_eq!(sketches.len(), 1);
+        assert_eq!(sketches[0].0, sketch("kept"));
+        assert_eq!(sketches[0].1, b"image bytes");
+        assert!(storage.load_sessions().unwrap().is_empty());
+        // A second open finds nothing more to clean.
+        assert!(Storage::open(dir.path()).unwrap().1.is_empty());
     }
 }

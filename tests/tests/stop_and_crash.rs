@@ -1,0 +1,137 @@
+//! Stopping a session from many clients at once, and a crash in the middle of a save,
+//! against the real `slam-service` (issue 17, finding 1).
+//!
+//! Twelve staggered `DELETE`s of one sketch session that mapped 150 lock-step scans of
+//! `paper-env1`: every one answers 200 with the same final status, and the stored files are
+//! what their names say (before 2026-12-03 every file of a session went through one
+//! `map.tmp`, and concurrent stops wrote PNG bytes into `map.yaml`). Then the service is
+//! killed with SIGKILL, the leftovers of a save cut short are planted in its data dir (a
+//! temporary file in the stopped session's folder, a session folder without `meta.json`),
+//! and on restart the stopped session is served byte for byte, the temporary file is gone
+//! and the torn folder is moved to `incomplete/`, never listed.
+
+mod common;
+
+use std::time::Duration;
+
+use anyhow::{Context, Result, ensure};
+use common::{
+    TempDir, dump_log, spawn_simulator_lockstep, start_service, start_sketch_a_session,
+    wait_session,
+};
+use sketchslam_api::SessionState;
+use sketchslam_tests::processes::unique_prefix;
+
+const SCANS: u64 = 150;
+const STOPS: usize = 12;
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn concurrent_stops_store_one_intact_map_and_a_torn_save_is_cleaned_on_restart() -> Result<()>
+{
+    let dir = TempDir::new("stopcrash")?;
+    let data = dir.0.join("data");
+    let result = run(&data).await;
+    if result.is_err() {
+        dump_log(&data.with_extension("log"), 60);
+    }
+    result
+}
+
+async fn run(data: &std::path::Path) -> Result<()> {
+    let prefix = unique_prefix("stopcrash");
+    let mut service = start_service(data, &prefix, &[], &[]).await?;
+    let client = service.client.clone();
+    let (_, session) = start_sketch_a_session(&client, "r1").await?;
+    let mut sim = spawn_simulator_lockstep(&prefix, "r1", SCANS, None)?;
+    let status = tokio::task::spawn_blocking(move || {
+        let s = sim.wait_timeout(Duration::from_secs(60));
+        (sim, s)
+    })
+    .await?
+    .1?;
+    ensure!(status.success(), "simulator failed: {status}");
+    wait_session(
+        &client,
+        &session.id,
+        Duration::from_secs(30),
+        "all scans",
+        |i| i.scans_processed >= SCANS,
+    )
+    .await?;
+
+    // Twelve stops, 5 ms apart, all in flight together.
+    let mut stops = Vec::new();
+    for k in 0..STOPS {
+        let c = client.clone();
+        let id = session.id.clone();
+        stops.push(tokio::spawn(async move {
+            tokio::time::sleep(Duration::from_millis(5 * k as u64)).await;
+            c.stop_session(&id).await
+        }));
+    }
+    let mut answers = Vec::new();
+    for stop in stops {
+        answers.push(stop.await?.context("a concurrent stop failed")?);
+    }
+    let first = &answers[0];
+    ensure!(first.state == SessionState::Stopped, "{first:?}");
+    ensure!(
+        answers.iter().all(|a| a == first),
+        "the stops answered differently: {answers:?}"
+    );
+
+    let folder = data.join("sessions").join(&session.id);
+    let yaml = std::fs::read_to_string(folder.join("map.yaml")).context("map.yaml is not text")?;
+    ensure!(
+        yaml.starts_with("image:") && yaml.contains("resolution:"),
+        "map.yaml holds {:?}",
+        &yaml[..yaml.len().min(40)]
+    );
+    ensure!(std::fs::read(folder.join("map.pgm"))?.starts_with(b"P5"));
+    ensure!(std::fs::read(folder.join("map.png"))?.starts_with(b"\x89PNG"));
+    serde_json::from_slice::<serde_json::Value>(&std::fs::read(folder.join("map.json"))?)
+        .context("map.json is not JSON")?;
+    let names: Vec<String> = std::fs::read_dir(&folder)?
+        .map(|e| e.map(|e| e.file_name().to_string_lossy().into_owned()))
+        .collect::<std::io::Result<_>>()?;
+    ensure!(
+        names
+            .iter()
+            .all(|n| !n.starts_with('.') && !n.ends_with(".tmp")),
+        "temporary files left: {names:?}"
+    );
+    let pgm = client.map_pgm(&session.id).await?;
+    let served_yaml = client.map_yaml(&session.id).await?;
+    ensure!(served_yaml == yaml);
+
+    // The crash, with a save cut short in the data dir.
+    service.guard.kill();
+    std::fs::write(folder.join(".sketchslam-tmp-cut"), b"half a file")?;
+    let torn = data.join("sessions").join("torn-session");
+    std::fs::create_dir_all(&torn)?;
+    std::fs::write(torn.join("map.pgm"), b"P5 half")?;
+
+    let again = start_service(data, &prefix, &[], &[]).await?;
+    let c = &again.client;
+    let listed = c.list_sessions().await?;
+    ensure!(
+        listed.sessions.len() == 1 && listed.sessions[0].id == session.id,
+        "sessions after the restart: {listed:?}"
+    );
+    ensure!(c.map_pgm(&session.id).await? == pgm, "map.pgm changed");
+    ensure!(c.map_yaml(&session.id).await? == yaml, "map.yaml changed");
+    ensure!(
+        !folder.join(".sketchslam-tmp-cut").exists(),
+        "the temporary file was not cleaned"
+    );
+    ensure!(
+        !torn.exists(),
+        "the torn session folder is still in sessions/"
+    );
+    ensure!(
+        data.join("incomplete/sessions-torn-session/map.pgm")
+            .exists(),
+        "the torn session folder was not kept in incomplete/"
+    );
+    Ok(())
+}
