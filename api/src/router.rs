@@ -153,8 +153,27 @@ pub fn router(backend: Arc<dyn Backend>, options: RouterOptions) -> Router {
         .with_state(state)
 }
 
+/// The `method` label of a request: one of HTTP's standard methods, or `other` for any
+/// made-up one, so a client cannot add series to `/metrics` without bound (each series is
+/// kept for the life of the process).
+fn method_label(method: &axum::http::Method) -> &'static str {
+    use axum::http::Method as M;
+    match *method {
+        M::GET => "GET",
+        M::HEAD => "HEAD",
+        M::POST => "POST",
+        M::PUT => "PUT",
+        M::DELETE => "DELETE",
+        M::PATCH => "PATCH",
+        M::OPTIONS => "OPTIONS",
+        M::CONNECT => "CONNECT",
+        M::TRACE => "TRACE",
+        _ => "other",
+    }
+}
+
 async fn count_requests(State(state): State<AppState>, req: Request, next: Next) -> Response {
-    let method = req.method().to_string();
+    let method = method_label(req.method());
     let route = req
         .extensions()
         .get::<MatchedPath>()
@@ -163,7 +182,7 @@ async fn count_requests(State(state): State<AppState>, req: Request, next: Next)
     let response = next.run(req).await;
     state
         .http_metrics
-        .record(&method, &route, response.status().as_u16());
+        .record(method, &route, response.status().as_u16());
     response
 }
 

@@ -170,6 +170,15 @@ fn check_finite(field: &str, value: f64) -> Result<(), ApiError> {
     }
 }
 
+/// A drawing's scale guess is refused outside this range, meters per pixel: 0.1 mm a pixel
+/// is a microscope's, 10 m a pixel a city map's; a floor drawn on paper or a screen lies
+/// between by orders of magnitude either way.
+pub const METERS_PER_PIXEL_RANGE: (f64, f64) = (1e-4, 10.0);
+
+/// A start heading is refused beyond ± this many degrees (one turn either way is how people
+/// and tools write any heading).
+pub const MAX_HEADING_DEG: f64 = 360.0;
+
 impl CreateSessionRequest {
     /// Checks everything that does not need the registry: the robot id, the fields the
     /// method needs, and that every number is finite and in range. The sketch's existence
@@ -194,6 +203,12 @@ impl CreateSessionRequest {
                 check_finite("start.u", start.u)?;
                 check_finite("start.v", start.v)?;
                 check_finite("start.heading_deg", start.heading_deg)?;
+                if start.heading_deg.abs() > MAX_HEADING_DEG {
+                    return Err(ApiError::invalid_number(
+                        "start.heading_deg",
+                        &format!("must lie within ±{MAX_HEADING_DEG}"),
+                    ));
+                }
                 if start.u < 0.0 {
                     return Err(ApiError::invalid_number("start.u", "must not be negative"));
                 }
@@ -211,6 +226,15 @@ impl CreateSessionRequest {
                     return Err(ApiError::invalid_number(
                         "meters_per_pixel",
                         "must be greater than 0",
+                    ));
+                }
+                let (lo, hi) = METERS_PER_PIXEL_RANGE;
+                if !(lo..=hi).contains(&mpp) {
+                    return Err(ApiError::invalid_number(
+                        "meters_per_pixel",
+                        &format!(
+                            "must lie between {lo} and {hi} (meters per pixel of the drawing)"
+                        ),
                     ));
                 }
             }

@@ -27,16 +27,25 @@ impl Topic {
     }
 }
 
+/// An error echoes at most this many characters of a rejected value.
+pub const ECHO_CHARS: usize = 64;
+
 /// A robot id or prefix that cannot be part of a service name.
 #[derive(Debug, Error, PartialEq, Eq)]
 pub enum NameError {
     /// Empty, too long, or holding characters other than `[A-Za-z0-9_-]`.
-    #[error("invalid {what} {value:?}: use 1-64 characters of A-Z, a-z, 0-9, '_' or '-'")]
+    #[error(
+        "invalid {what} {value:?}{}: use 1-64 characters of A-Z, a-z, 0-9, '_' or '-'",
+        if *.length > ECHO_CHARS { format!(" ({length} characters)") } else { String::new() }
+    )]
     Invalid {
         /// Which part was invalid ("robot id" or "prefix").
         what: &'static str,
-        /// The rejected value.
+        /// The rejected value, cut to its first [`ECHO_CHARS`] characters (an error
+        /// message echoes it, and a 15 MB id must not come back in a 15 MB answer).
         value: String,
+        /// The rejected value's length in characters.
+        length: usize,
     },
 }
 
@@ -52,7 +61,8 @@ pub fn validate_segment(what: &'static str, value: &str) -> Result<(), NameError
     } else {
         Err(NameError::Invalid {
             what,
-            value: value.to_string(),
+            value: value.chars().take(ECHO_CHARS).collect(),
+            length: value.chars().count(),
         })
     }
 }
@@ -99,5 +109,19 @@ mod tests {
         assert!(ServiceNames::new("p", "a/b").is_err());
         assert!(ServiceNames::new("", "r").is_err());
         assert!(ServiceNames::new("p", &"x".repeat(65)).is_err());
+    }
+
+    #[test]
+    fn an_error_echoes_a_long_value_cut_with_its_length() {
+        let e = validate_segment("robot id", &"x".repeat(15_000_000)).unwrap_err();
+        let text = e.to_string();
+        assert!(text.len() < 200, "{} bytes", text.len());
+        assert!(text.contains(&format!("\"{}\" (15000000 characters)", "x".repeat(64))));
+        // A short one comes back whole, without a length.
+        let e = validate_segment("robot id", "a/b").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "invalid robot id \"a/b\": use 1-64 characters of A-Z, a-z, 0-9, '_' or '-'"
+        );
     }
 }
