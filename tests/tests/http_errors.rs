@@ -307,6 +307,23 @@ async fn run(data: &std::path::Path) -> Result<()> {
         ),
         ("zero scale", with(json!({"meters_per_pixel": 0.0})), &[422]),
         (
+            "an astronomical scale",
+            with(json!({"meters_per_pixel": 1e308})),
+            &[422],
+        ),
+        (
+            "a subnormal scale",
+            with(json!({"meters_per_pixel": 5e-324})),
+            &[422],
+        ),
+        (
+            "a heading of 1e308 degrees",
+            with(
+                json!({"start": {"u": cfg.start_u_px, "v": cfg.start_v_px, "heading_deg": 1e308}}),
+            ),
+            &[422],
+        ),
+        (
             "sketch method without sketch",
             with(json!({"sketch_id": null})),
             &[422],
