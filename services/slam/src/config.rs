@@ -6,6 +6,8 @@ use std::path::PathBuf;
 
 use sketchslam_engine::mapper::MapperConfig;
 
+use crate::http_server::HttpLimits;
+
 /// Everything [`super::run`] needs.
 #[derive(Debug, Clone)]
 pub struct ServiceConfig {
@@ -23,6 +25,8 @@ pub struct ServiceConfig {
     pub max_body_bytes: usize,
     /// Settings of every session's mapper.
     pub mapper: MapperConfig,
+    /// Connection cap and timeouts of the HTTP listener.
+    pub http: HttpLimits,
 }
 
 impl Default for ServiceConfig {
@@ -35,6 +39,7 @@ impl Default for ServiceConfig {
             token: None,
             max_body_bytes: sketchslam_api::DEFAULT_MAX_BODY_BYTES,
             mapper: MapperConfig::default(),
+            http: HttpLimits::default(),
         }
     }
 }

@@ -1,7 +1,7 @@
 //! The slam-service runtime: the part of the crate that does I/O.
 //!
 //! ```text
-//! HTTP (axum, tokio) ──▶ Registry (sessions + sketches, implements api::Backend)
+//! HTTP (http_server, axum) ──▶ Registry (sessions + sketches, implements api::Backend)
 //!                             │ one Session per robot
 //!                             ▼
 //!   intake thread (iceoryx2 RobotSubscriber) ──bounded channel──▶ mapper thread (Mapper)
@@ -14,6 +14,7 @@
 
 pub mod codec;
 pub mod config;
+pub mod http_server;
 pub mod intake;
 pub mod method;
 pub mod metrics;
@@ -33,6 +34,7 @@ use thiserror::Error;
 use tokio::net::TcpListener;
 
 pub use config::{RegistryConfig, ServiceConfig};
+pub use http_server::HttpLimits;
 pub use registry::Registry;
 
 /// Why the service could not start or stopped with an error.
@@ -106,6 +108,9 @@ pub async fn serve(
         ipc_prefix = %config.ipc_prefix,
         max_sessions = config.max_sessions,
         auth = config.token.is_some(),
+        max_connections = config.http.max_connections,
+        header_read_timeout_s = config.http.header_read_timeout.as_secs_f64(),
+        request_timeout_s = config.http.request_timeout.as_secs_f64(),
         "slam-service listening"
     );
     let stopping = registry.clone();
@@ -116,10 +121,7 @@ pub async fn serve(
             tracing::error!(error = %e, "stopping sessions failed");
         }
     };
-    axum::serve(listener, app)
-        .with_graceful_shutdown(graceful)
-        .await
-        .map_err(RuntimeError::Serve)?;
+    http_server::serve_http(listener, app, config.http, graceful).await;
     // Sessions started while the server drained are stopped too.
     tokio::task::spawn_blocking(move || registry.shutdown())
         .await

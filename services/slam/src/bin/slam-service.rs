@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Parser;
-use sketchslam_slam::{ServiceConfig, run};
+use sketchslam_slam::{HttpLimits, ServiceConfig, run};
 
 /// Builds metric maps from robots' LiDAR and odometry, with hand-drawn sketches as prior.
 #[derive(Debug, Parser)]
@@ -31,6 +31,17 @@ struct Args {
     /// Bearer token required on every request except /healthz (prefer the variable).
     #[arg(long, env = "SKETCHSLAM_TOKEN", hide_env_values = true)]
     token: Option<String>,
+    /// HTTP connections served at once; more wait until one closes.
+    #[arg(long, env = "SKETCHSLAM_MAX_CONNECTIONS", default_value_t = HttpLimits::default().max_connections)]
+    max_connections: usize,
+    /// Seconds a client has to send a request's headers (and the longest pause inside a
+    /// body); an idle keep-alive connection is closed after it too.
+    #[arg(long, env = "SKETCHSLAM_HEADER_TIMEOUT_S", default_value_t = HttpLimits::default().header_read_timeout.as_secs_f64())]
+    header_timeout_s: f64,
+    /// Seconds a request may take, body included, before it is answered 408 (an event
+    /// stream, once started, is not bounded).
+    #[arg(long, env = "SKETCHSLAM_REQUEST_TIMEOUT_S", default_value_t = HttpLimits::default().request_timeout.as_secs_f64())]
+    request_timeout_s: f64,
     /// Log as JSON lines instead of text.
     #[arg(long, env = "SKETCHSLAM_LOG_JSON")]
     log_json: bool,
@@ -77,6 +88,18 @@ fn main() -> anyhow::Result<()> {
     } else {
         builder.init();
     }
+    let seconds = |name: &str, s: f64| {
+        std::time::Duration::try_from_secs_f64(s)
+            .ok()
+            .filter(|d| !d.is_zero())
+            .with_context(|| format!("--{name}: {s} is not a positive number of seconds"))
+    };
+    let http = HttpLimits {
+        max_connections: args.max_connections.max(1),
+        header_read_timeout: seconds("header-timeout-s", args.header_timeout_s)?,
+        request_timeout: seconds("request-timeout-s", args.request_timeout_s)?,
+        ..HttpLimits::default()
+    };
     let config = ServiceConfig {
         listen: args.listen,
         data_dir: args.data_dir,
@@ -84,6 +107,7 @@ fn main() -> anyhow::Result<()> {
         max_sessions: args.max_sessions,
         token: args.token.filter(|t| !t.is_empty()),
         max_body_bytes: args.max_body_bytes,
+        http,
         ..ServiceConfig::default()
     };
     let runtime = tokio::runtime::Runtime::new().context("starting the tokio runtime")?;

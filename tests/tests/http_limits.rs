@@ -1,0 +1,134 @@
+//! The HTTP listener's limits against the real `slam-service` (issue 17, finding 5): before
+//! 2026-12-03, 50 slow-header and 50 slow-body connections were all still open after 40 s.
+//!
+//! With `--header-timeout-s 1 --request-timeout-s 3 --max-connections 6`:
+//! - connections that send nothing, or half their headers, are closed within a few seconds;
+//! - a keep-alive connection idle after its answer is closed too;
+//! - a body that stops half-way gets 408 or a closed connection, not a hung socket;
+//! - with the cap's worth of idle connections open, a seventh client is not served until
+//!   the idle ones are dropped, and then it is.
+//!
+//! The bounds are generous (each limit is checked at four times its value or more): the
+//! test asserts what happens, not how fast.
+
+mod common;
+
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, ensure};
+use common::{TempDir, dump_log, start_service};
+use sketchslam_tests::processes::unique_prefix;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::TcpStream;
+
+/// Reads until the server closes the connection (or `limit` passes: an error). Returns
+/// what it sent and how long it took.
+async fn read_until_closed(stream: &mut TcpStream, limit: Duration) -> Result<(Vec<u8>, Duration)> {
+    let start = Instant::now();
+    let mut got = Vec::new();
+    let mut buf = [0u8; 4096];
+    loop {
+        let n = tokio::time::timeout(limit.saturating_sub(start.elapsed()), stream.read(&mut buf))
+            .await
+            .context("the server kept the connection open")?
+            .unwrap_or(0);
+        if n == 0 {
+            return Ok((got, start.elapsed()));
+        }
+        got.extend_from_slice(&buf[..n]);
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn slow_and_idle_clients_are_cut_off_and_connections_are_capped() -> Result<()> {
+    let dir = TempDir::new("httplimits")?;
+    let data = dir.0.join("data");
+    let result = run(&data).await;
+    if result.is_err() {
+        dump_log(&data.with_extension("log"), 40);
+    }
+    result
+}
+
+async fn run(data: &std::path::Path) -> Result<()> {
+    let prefix = unique_prefix("httplimits");
+    let args = [
+        "--header-timeout-s",
+        "1",
+        "--request-timeout-s",
+        "3",
+        "--max-connections",
+        "6",
+    ];
+    let service = start_service(data, &prefix, &args, &[]).await?;
+    let addr = service
+        .base
+        .strip_prefix("http://")
+        .context("base address")?
+        .to_string();
+    let limit = Duration::from_secs(8);
+
+    // Silent, half-headers, idle after an answer, and a body that stops.
+    let mut silent = TcpStream::connect(&addr).await?;
+    let mut half = TcpStream::connect(&addr).await?;
+    half.write_all(b"GET /healthz HTTP/1.1\r\nHost: x\r\n")
+        .await?;
+    let mut idle = TcpStream::connect(&addr).await?;
+    idle.write_all(b"GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n")
+        .await?;
+    let mut body = TcpStream::connect(&addr).await?;
+    body.write_all(
+        b"POST /v1/sketches HTTP/1.1\r\nHost: x\r\nContent-Type: image/png\r\nContent-Length: 100000\r\n\r\n\x89PNG",
+    )
+    .await?;
+
+    let (got, _) = read_until_closed(&mut silent, limit)
+        .await
+        .context("silent")?;
+    ensure!(got.is_empty(), "a silent connection got {got:?}");
+    let (got, _) = read_until_closed(&mut half, limit).await.context("half")?;
+    ensure!(
+        got.is_empty() || String::from_utf8_lossy(&got).starts_with("HTTP/1.1 408"),
+        "half headers got {:?}",
+        String::from_utf8_lossy(&got)
+    );
+    let (got, _) = read_until_closed(&mut idle, limit).await.context("idle")?;
+    let text = String::from_utf8_lossy(&got);
+    ensure!(
+        text.starts_with("HTTP/1.1 200"),
+        "the idle connection's answer: {text:?}"
+    );
+    let (got, _) = read_until_closed(&mut body, limit).await.context("body")?;
+    let text = String::from_utf8_lossy(&got);
+    ensure!(
+        text.is_empty() || text.starts_with("HTTP/1.1 408") || text.starts_with("HTTP/1.1 400"),
+        "a stalled body got {text:?}"
+    );
+
+    // The cap: six idle connections fill it; a seventh client waits.
+    let mut held = Vec::new();
+    for _ in 0..6 {
+        held.push(TcpStream::connect(&addr).await?);
+    }
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let client = reqwest::Client::new();
+    let url = format!("{}/healthz", service.base);
+    let blocked = client
+        .get(&url)
+        .timeout(Duration::from_millis(300))
+        .send()
+        .await;
+    ensure!(
+        blocked.is_err(),
+        "a seventh connection was served past the cap: {blocked:?}"
+    );
+    drop(held);
+    let served = client
+        .get(&url)
+        .timeout(limit)
+        .send()
+        .await
+        .context("not served after the idle connections went")?;
+    ensure!(served.status().is_success());
+    Ok(())
+}
