@@ -145,6 +145,48 @@ fn check_dimensions(w: u32, h: u32, limits: &SketchLimits) -> Result<(), EngineE
     Ok(())
 }
 
+/// True when a JPEG's image data is followed by its end-of-image marker (`FF D9`).
+///
+/// Walks the marker segments from the start-of-image (`FF D8`): each has a 2-byte length
+/// after its marker, and headers (tables, `APPn` with their thumbnails) are skipped whole.
+/// After a start-of-scan (`FF DA`) the entropy-coded data follows, in which a `FF` byte is
+/// always stuffed (`FF 00`) or a restart marker (`FF D0`–`FF D7`); the next other marker
+/// ends the scan: another segment (a progressive JPEG's next tables and scans) or `FF D9`.
+/// A file cut anywhere before that marker is incomplete (ITU-T T.81, B.1.1 and F.1.2.3).
+/// O(bytes).
+fn jpeg_is_complete(bytes: &[u8]) -> bool {
+    let mut i = 2;
+    while i + 1 < bytes.len() {
+        if bytes[i] != 0xFF {
+            return false;
+        }
+        let marker = bytes[i + 1];
+        match marker {
+            0xD9 => return true,
+            // Fill bytes before a marker.
+            0xFF => i += 1,
+            // Markers without a length.
+            0x01 | 0xD0..=0xD7 => i += 2,
+            _ => {
+                let Some(len) = bytes.get(i + 2..i + 4) else {
+                    return false;
+                };
+                let len = u16::from_be_bytes([len[0], len[1]]) as usize;
+                i += 2 + len;
+                if marker == 0xDA {
+                    // Entropy-coded data up to the next marker that is not a stuffed byte
+                    // or a restart.
+                    let in_data = |b: u8, next: u8| b != 0xFF || matches!(next, 0x00 | 0xD0..=0xD7);
+                    while i + 1 < bytes.len() && in_data(bytes[i], bytes[i + 1]) {
+                        i += 1;
+                    }
+                }
+            }
+        }
+    }
+    false
+}
+
 fn map_image_error(err: ImageError) -> EngineError {
     match err {
         ImageError::Limits(e) => EngineError::ImageTooLarge(e.to_string()),
@@ -190,6 +232,12 @@ pub fn decode_gray(bytes: &[u8], limits: &SketchLimits) -> Result<GrayImage, Eng
     };
     let (w, h) = reader()?.into_dimensions().map_err(map_image_error)?;
     check_dimensions(w, h, limits)?;
+    if bytes.starts_with(&[0xFF, 0xD8]) && !jpeg_is_complete(bytes) {
+        // The decoder fills what is missing with grey, and the cut becomes a drawn wall.
+        return Err(EngineError::ImageDecode(
+            "the JPEG is cut short (no end-of-image marker after its image data)".into(),
+        ));
+    }
 
     let mut decoder_limits = Limits::default();
     decoder_limits.max_image_width = Some(w);
@@ -264,6 +312,37 @@ mod tests {
             decode_gray(&bytes, &SketchLimits::default()),
             Err(EngineError::ImageTooLarge(_))
         ));
+    }
+
+    #[test]
+    fn cut_images_are_refused_and_whole_ones_decode() {
+        // A drawing: a dark frame on white, 120 × 80, as PNG and as JPEG.
+        let img = image::GrayImage::from_fn(120, 80, |x, y| {
+            let wall = x < 4 || y < 4 || x >= 116 || y >= 76 || x == 60;
+            image::Luma([if wall { 0 } else { 255 }])
+        });
+        let limits = SketchLimits::default();
+        for format in [image::ImageFormat::Jpeg, image::ImageFormat::Png] {
+            let mut bytes = Vec::new();
+            img.write_to(&mut Cursor::new(&mut bytes), format).unwrap();
+            assert!(decode_gray(&bytes, &limits).is_ok(), "{format:?} whole");
+            if format == image::ImageFormat::Jpeg {
+                assert!(jpeg_is_complete(&bytes));
+            }
+            // Half a file; for the JPEG also all but its end-of-image marker (a PNG cut in
+            // its 12-byte IEND trailer has all its pixels and may decode).
+            let mut cuts = vec![bytes.len() / 2];
+            if format == image::ImageFormat::Jpeg {
+                cuts.push(bytes.len() - 2);
+            }
+            for keep in cuts {
+                match decode_gray(&bytes[..keep], &limits) {
+                    Err(EngineError::ImageDecode(_)) => {}
+                    Err(other) => panic!("{format:?} cut at {keep}: {other}"),
+                    Ok(_) => panic!("{format:?} cut at {keep} of {} decoded", bytes.len()),
+                }
+            }
+        }
     }
 
     #[test]
