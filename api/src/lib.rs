@@ -27,5 +27,7 @@ pub use client::{ClientError, EventStream, SketchslamClient};
 pub use error::{ApiError, ErrorBody, ErrorDetail};
 pub use openapi::ApiDoc;
 pub use registration::*;
-pub use router::{DEFAULT_MAX_BODY_BYTES, HttpMetrics, RouterOptions, router};
+pub use router::{
+    DEFAULT_MAX_BODY_BYTES, DEFAULT_MAX_CONCURRENT_UPLOADS, HttpMetrics, RouterOptions, router,
+};
 pub use types::*;

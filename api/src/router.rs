@@ -9,6 +9,7 @@ use std::sync::{Arc, Mutex};
 
 use axum::body::Body;
 use axum::extract::{MatchedPath, Request, State};
+use axum::handler::Handler;
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::middleware::{self, Next};
 use axum::response::sse::{Event, KeepAlive, Sse};
@@ -18,6 +19,7 @@ use axum::{Json, Router};
 use futures::{Stream, StreamExt};
 use serde::Deserialize;
 use tokio_stream::wrappers::BroadcastStream;
+use tower::limit::GlobalConcurrencyLimitLayer;
 use utoipa::OpenApi;
 
 use crate::backend::Backend;
@@ -43,6 +45,10 @@ pub struct RouterOptions {
     pub token: Option<String>,
     /// The largest request body accepted; larger ones get 413 before being read whole.
     pub max_body_bytes: usize,
+    /// Drawing uploads (`POST /v1/sketches`) handled at once; more wait their turn, their
+    /// bodies unread. Decoding a drawing at the pixel limit holds ~270 MB while it runs, so
+    /// this bounds the service's peak memory, not only its CPU.
+    pub max_concurrent_uploads: usize,
 }
 
 impl Default for RouterOptions {
@@ -50,9 +56,13 @@ impl Default for RouterOptions {
         Self {
             token: None,
             max_body_bytes: DEFAULT_MAX_BODY_BYTES,
+            max_concurrent_uploads: DEFAULT_MAX_CONCURRENT_UPLOADS,
         }
     }
 }
+
+/// Default of [`RouterOptions::max_concurrent_uploads`].
+pub const DEFAULT_MAX_CONCURRENT_UPLOADS: usize = 2;
 
 /// Counts of answered HTTP requests by method, route template and status.
 #[derive(Debug, Default)]
@@ -111,7 +121,12 @@ pub fn router(backend: Arc<dyn Backend>, options: RouterOptions) -> Router {
         .route("/healthz", get(healthz))
         .route("/metrics", get(metrics))
         .route("/openapi.json", get(openapi_json))
-        .route("/v1/sketches", get(list_sketches).post(create_sketch))
+        .route(
+            "/v1/sketches",
+            get(list_sketches).post(create_sketch.layer(GlobalConcurrencyLimitLayer::new(
+                options.max_concurrent_uploads.max(1),
+            ))),
+        )
         .route("/v1/sketches/{id}", get(get_sketch).delete(delete_sketch))
         .route("/v1/sketches/{id}/lines.png", get(sketch_overlay))
         .route("/v1/sessions", get(list_sessions).post(create_session))

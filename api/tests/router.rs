@@ -12,7 +12,7 @@ use sketchslam_api::*;
 use tower::ServiceExt;
 
 mod common;
-use common::{Fake, PNG_MAGIC, fake_png};
+use common::{Fake, PNG_MAGIC, fake_png, slow_fake_png};
 
 struct Harness {
     fake: Arc<Fake>,
@@ -29,6 +29,7 @@ fn default_harness() -> Harness {
     harness(RouterOptions {
         token: None,
         max_body_bytes: 4096,
+        ..RouterOptions::default()
     })
 }
 
@@ -610,6 +611,38 @@ async fn metrics_are_prometheus_text_with_http_counts() {
     );
 }
 
+#[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+async fn uploads_beyond_the_limit_wait_their_turn() {
+    // Decoding a drawing at the pixel limit holds ~270 MB: six uploads at once, at most
+    // two handled together; all six answered.
+    let h = harness(RouterOptions {
+        max_body_bytes: 4096,
+        max_concurrent_uploads: 2,
+        ..RouterOptions::default()
+    });
+    let mut uploads = Vec::new();
+    for _ in 0..6 {
+        let app = h.app.clone();
+        uploads.push(tokio::spawn(async move {
+            post(
+                &app,
+                "/v1/sketches",
+                "image/png",
+                slow_fake_png(640, 480, 3, 150),
+            )
+            .await
+        }));
+    }
+    for upload in uploads {
+        assert_eq!(upload.await.unwrap().status, StatusCode::CREATED);
+    }
+    let most = h
+        .fake
+        .max_uploads_in_flight
+        .load(std::sync::atomic::Ordering::SeqCst);
+    assert_eq!(most, 2, "uploads handled at once");
+}
+
 #[tokio::test]
 async fn made_up_methods_share_one_metrics_series() {
     // Before 2026-12-03 every made-up method string became a label value of its own, for
@@ -699,6 +732,7 @@ async fn token_guards_everything_but_healthz() {
     let h = harness(RouterOptions {
         token: Some("s3cret".to_string()),
         max_body_bytes: 4096,
+        ..RouterOptions::default()
     });
     assert_eq!(get(&h.app, "/healthz").await.status, StatusCode::OK);
     for uri in [

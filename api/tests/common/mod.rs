@@ -3,6 +3,7 @@
 
 use std::collections::BTreeMap;
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use axum::body::Bytes;
 use sketchslam_api::*;
@@ -23,6 +24,16 @@ pub struct Fake {
     pub sessions: Mutex<BTreeMap<String, SessionInfo>>,
     pub events: Mutex<BTreeMap<String, broadcast::Sender<SessionEvent>>>,
     pub next: Mutex<u32>,
+    /// Uploads being handled now, and the most at once so far.
+    pub uploads_in_flight: AtomicUsize,
+    pub max_uploads_in_flight: AtomicUsize,
+}
+
+/// A fake image whose upload takes `ms` milliseconds to handle.
+pub fn slow_fake_png(width: u32, height: u32, lines: usize, ms: u64) -> Vec<u8> {
+    let mut v = fake_png(width, height, lines);
+    v.extend_from_slice(format!(" slow {ms}").as_bytes());
+    v
 }
 
 impl Fake {
@@ -32,18 +43,11 @@ impl Fake {
         format!("00000000-0000-4000-8000-{:012}", *n)
     }
 
-    fn session(&self, id: &str) -> Result<SessionInfo, ApiError> {
-        self.sessions
-            .lock()
-            .unwrap()
-            .get(id)
-            .cloned()
-            .ok_or_else(|| ApiError::session_not_found(id))
-    }
-}
-
-impl Backend for Fake {
-    fn create_sketch(&self, name: Option<String>, image: Bytes) -> Result<SketchInfo, ApiError> {
+    fn create_sketch_now(
+        &self,
+        name: Option<String>,
+        image: Bytes,
+    ) -> Result<SketchInfo, ApiError> {
         let Some(rest) = image.strip_prefix(PNG_MAGIC) else {
             return Err(ApiError::invalid(
                 "invalid_image",
@@ -51,6 +55,11 @@ impl Backend for Fake {
             ));
         };
         let text = String::from_utf8_lossy(rest);
+        let (text, slow) = match text.split_once(" slow ") {
+            Some((t, ms)) => (t.to_string(), ms.parse().unwrap_or(0)),
+            None => (text.to_string(), 0),
+        };
+        std::thread::sleep(std::time::Duration::from_millis(slow));
         let nums: Vec<u64> = text.split(' ').filter_map(|s| s.parse().ok()).collect();
         let [w, h, lines] = nums[..] else {
             return Err(ApiError::invalid(
@@ -85,6 +94,25 @@ impl Backend for Fake {
             .unwrap()
             .insert(info.id.clone(), info.clone());
         Ok(info)
+    }
+
+    fn session(&self, id: &str) -> Result<SessionInfo, ApiError> {
+        self.sessions
+            .lock()
+            .unwrap()
+            .get(id)
+            .cloned()
+            .ok_or_else(|| ApiError::session_not_found(id))
+    }
+}
+
+impl Backend for Fake {
+    fn create_sketch(&self, name: Option<String>, image: Bytes) -> Result<SketchInfo, ApiError> {
+        let now = self.uploads_in_flight.fetch_add(1, Ordering::SeqCst) + 1;
+        self.max_uploads_in_flight.fetch_max(now, Ordering::SeqCst);
+        let answer = self.create_sketch_now(name, image);
+        self.uploads_in_flight.fetch_sub(1, Ordering::SeqCst);
+        answer
     }
 
     fn list_sketches(&self) -> Result<Vec<SketchSummary>, ApiError> {

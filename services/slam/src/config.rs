@@ -27,6 +27,8 @@ pub struct ServiceConfig {
     pub mapper: MapperConfig,
     /// Connection cap and timeouts of the HTTP listener.
     pub http: HttpLimits,
+    /// Drawing uploads decoded at once; more wait their turn.
+    pub max_concurrent_uploads: usize,
 }
 
 impl Default for ServiceConfig {
@@ -40,6 +42,7 @@ impl Default for ServiceConfig {
             max_body_bytes: sketchslam_api::DEFAULT_MAX_BODY_BYTES,
             mapper: MapperConfig::default(),
             http: HttpLimits::default(),
+            max_concurrent_uploads: sketchslam_api::DEFAULT_MAX_CONCURRENT_UPLOADS,
         }
     }
 }

@@ -99,6 +99,7 @@ pub async fn serve(
         RouterOptions {
             token: config.token.clone(),
             max_body_bytes: config.max_body_bytes,
+            max_concurrent_uploads: config.max_concurrent_uploads,
         },
     );
     let addr = listener.local_addr().map_err(RuntimeError::Serve)?;

@@ -31,6 +31,9 @@ struct Args {
     /// Bearer token required on every request except /healthz (prefer the variable).
     #[arg(long, env = "SKETCHSLAM_TOKEN", hide_env_values = true)]
     token: Option<String>,
+    /// Drawing uploads decoded at once (each holds up to ~270 MB while it runs); more wait.
+    #[arg(long, env = "SKETCHSLAM_MAX_CONCURRENT_UPLOADS", default_value_t = sketchslam_api::DEFAULT_MAX_CONCURRENT_UPLOADS)]
+    max_concurrent_uploads: usize,
     /// HTTP connections served at once; more wait until one closes.
     #[arg(long, env = "SKETCHSLAM_MAX_CONNECTIONS", default_value_t = HttpLimits::default().max_connections)]
     max_connections: usize,
@@ -108,6 +111,7 @@ fn main() -> anyhow::Result<()> {
         token: args.token.filter(|t| !t.is_empty()),
         max_body_bytes: args.max_body_bytes,
         http,
+        max_concurrent_uploads: args.max_concurrent_uploads.max(1),
         ..ServiceConfig::default()
     };
     let runtime = tokio::runtime::Runtime::new().context("starting the tokio runtime")?;
