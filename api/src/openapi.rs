@@ -13,7 +13,8 @@ use crate::types::{
     CreateSessionRequest, HealthResponse, MappingMethod, OccupancyGridResponse, PixelPoint,
     Pose2Info, PoseResponse, SessionEvent, SessionInfo, SessionList, SessionState, SketchInfo,
     SketchLineInfo, SketchList, SketchPoseInfo, SketchPoseSource, SketchStart, SketchSummary,
-    SketchTrajectoryPointInfo, SketchTrajectoryResponse, TrajectoryPointInfo, TrajectoryResponse,
+    SketchTrajectoryPointInfo, SketchTrajectoryResponse, StopReason, TrajectoryPointInfo,
+    TrajectoryResponse,
 };
 use crate::{registration_routes, router};
 
@@ -55,8 +56,8 @@ use crate::{registration_routes, router};
     components(schemas(
         ErrorBody, ErrorDetail, CreateSessionRequest, HealthResponse, MappingMethod,
         OccupancyGridResponse, PixelPoint, Pose2Info, PoseResponse, SessionEvent, SessionInfo,
-        SessionList, SessionState, SketchInfo, SketchLineInfo, SketchList, SketchPoseInfo,
-        SketchPoseSource,
+        SessionList, SessionState, StopReason, SketchInfo, SketchLineInfo, SketchList,
+        SketchPoseInfo, SketchPoseSource,
         SketchStart, SketchSummary, SketchTrajectoryPointInfo, SketchTrajectoryResponse,
         TrajectoryPointInfo, TrajectoryResponse, RegistrationInfo, WarpInfo, SketchInMapResponse,
         SketchLineInMap, TransformRequest, TransformResponse, DrawingPointIn, DrawingPointOut,

@@ -317,6 +317,21 @@ pub struct SessionInfo {
     pub created_unix_ms: u64,
     /// Stop time, milliseconds since the Unix epoch.
     pub stopped_unix_ms: Option<u64>,
+    /// Why the session stopped (absent while it runs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stop_reason: Option<StopReason>,
+}
+
+/// Why a session stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// A client stopped it (`DELETE /v1/sessions/{id}`).
+    Requested,
+    /// Its robot published nothing for the service's idle time (`--idle-stop-s`).
+    RobotSilent,
+    /// The service shut down.
+    Shutdown,
 }
 
 /// `GET /v1/sessions`.

@@ -9,6 +9,9 @@
 //! temporary file in the stopped session's folder, a session folder without `meta.json`),
 //! and on restart the stopped session is served byte for byte, the temporary file is gone
 //! and the torn folder is moved to `incomplete/`, never listed.
+//!
+//! And a session whose robot falls silent stops and stores itself (`--idle-stop-s`), saying
+//! so in its status, while one whose robot never started keeps waiting.
 
 mod common;
 
@@ -19,7 +22,7 @@ use common::{
     TempDir, dump_log, spawn_simulator_lockstep, start_service, start_sketch_a_session,
     wait_session,
 };
-use sketchslam_api::SessionState;
+use sketchslam_api::{CreateSessionRequest, MappingMethod, SessionState, StopReason};
 use sketchslam_tests::processes::unique_prefix;
 
 const SCANS: u64 = 150;
@@ -133,5 +136,64 @@ async fn run(data: &std::path::Path) -> Result<()> {
             .exists(),
         "the torn session folder was not kept in incomplete/"
     );
+    Ok(())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_session_whose_robot_falls_silent_stops_and_stores_itself() -> Result<()> {
+    let dir = TempDir::new("idlestop")?;
+    let data = dir.0.join("data");
+    let result = run_idle(&data).await;
+    if result.is_err() {
+        dump_log(&data.with_extension("log"), 60);
+    }
+    result
+}
+
+async fn run_idle(data: &std::path::Path) -> Result<()> {
+    let prefix = unique_prefix("idlestop");
+    let service = start_service(data, &prefix, &["--idle-stop-s", "2"], &[]).await?;
+    let client = service.client.clone();
+    let request = |robot: &str| CreateSessionRequest {
+        robot_id: robot.into(),
+        method: MappingMethod::Odometry,
+        sketch_id: None,
+        start: None,
+        meters_per_pixel: None,
+        seed: None,
+    };
+    let fed = client.create_session(&request("r1")).await?;
+    let waiting = client.create_session(&request("r2")).await?;
+    let mut sim = spawn_simulator_lockstep(&prefix, "r1", 60, None)?;
+    let status = tokio::task::spawn_blocking(move || {
+        let s = sim.wait_timeout(Duration::from_secs(60));
+        (sim, s)
+    })
+    .await?
+    .1?;
+    ensure!(status.success(), "simulator failed: {status}");
+    let stopped = wait_session(
+        &client,
+        &fed.id,
+        Duration::from_secs(30),
+        "the silent robot's session to stop",
+        |i| i.state == SessionState::Stopped,
+    )
+    .await?;
+    ensure!(
+        stopped.stop_reason == Some(StopReason::RobotSilent) && stopped.scans_processed == 60,
+        "{stopped:?}"
+    );
+    // A client's stop now waits for that one stop's save and answers it.
+    let again = client.stop_session(&fed.id).await?;
+    ensure!(again.stop_reason == Some(StopReason::RobotSilent), "{again:?}");
+    ensure!(data.join("sessions").join(&fed.id).join("meta.json").exists());
+    ensure!(client.map_pgm(&fed.id).await?.starts_with(b"P5"));
+    // The robot that never published: still waiting, long past the idle time.
+    let still = client.get_session(&waiting.id).await?;
+    ensure!(still.state == SessionState::WaitingForData, "{still:?}");
+    // A client's stop says so.
+    let by_hand = client.stop_session(&waiting.id).await?;
+    ensure!(by_hand.stop_reason == Some(StopReason::Requested), "{by_hand:?}");
     Ok(())
 }

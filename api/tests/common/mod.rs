@@ -185,6 +185,7 @@ impl Backend for Fake {
             last_error: None,
             created_unix_ms: 2,
             stopped_unix_ms: None,
+            stop_reason: None,
         };
         sessions.insert(info.id.clone(), info.clone());
         self.events

@@ -29,6 +29,9 @@ pub struct ServiceConfig {
     pub http: HttpLimits,
     /// Drawing uploads decoded at once; more wait their turn.
     pub max_concurrent_uploads: usize,
+    /// A session whose robot has sent nothing for this long stops and stores itself;
+    /// `None`: never.
+    pub idle_stop: Option<std::time::Duration>,
 }
 
 impl Default for ServiceConfig {
@@ -43,6 +46,7 @@ impl Default for ServiceConfig {
             mapper: MapperConfig::default(),
             http: HttpLimits::default(),
             max_concurrent_uploads: sketchslam_api::DEFAULT_MAX_CONCURRENT_UPLOADS,
+            idle_stop: Some(std::time::Duration::from_secs(60)),
         }
     }
 }

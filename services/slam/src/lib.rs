@@ -114,6 +114,29 @@ pub async fn serve(
         request_timeout_s = config.http.request_timeout.as_secs_f64(),
         "slam-service listening"
     );
+    if let Some(silent) = config.idle_stop {
+        // Checked every second (a quarter of the idle time when that is shorter).
+        let period = (silent / 4).clamp(
+            std::time::Duration::from_millis(100),
+            std::time::Duration::from_secs(1),
+        );
+        let watched = Arc::downgrade(&registry);
+        tokio::spawn(async move {
+            let mut tick = tokio::time::interval(period);
+            loop {
+                tick.tick().await;
+                let Some(registry) = watched.upgrade() else {
+                    break;
+                };
+                if tokio::task::spawn_blocking(move || registry.stop_silent_sessions(silent))
+                    .await
+                    .is_err()
+                {
+                    break;
+                }
+            }
+        });
+    }
     let stopping = registry.clone();
     let graceful = async move {
         shutdown.await;

@@ -12,7 +12,7 @@ use axum::body::Bytes;
 use sketchslam_api::{
     ApiError, Backend, CreateSessionRequest, MappingMethod, OccupancyGridResponse, PoseResponse,
     RegistrationInfo, SessionEvent, SessionInfo, SessionState, SketchInMapResponse, SketchInfo,
-    SketchSummary, SketchTrajectoryResponse, TrajectoryResponse, TransformRequest,
+    SketchSummary, SketchTrajectoryResponse, StopReason, TrajectoryResponse, TransformRequest,
     TransformResponse,
 };
 use sketchslam_ipc::IpcConfig;
@@ -165,6 +165,51 @@ impl Registry {
         }
     }
 
+    /// Stops a session for `reason` and stores it; a stopped one answers its final status.
+    fn stop_because(&self, id: &str, reason: StopReason) -> Result<SessionInfo, ApiError> {
+        let session = match self.live(id)? {
+            Ok(session) => session,
+            Err(meta) => return Ok(meta.info),
+        };
+        let meta = session.stop_with(reason, |meta, files| {
+            self.storage
+                .save_session(meta, files)
+                .map_err(|e| ApiError::internal(format!("storing session {id}: {e}")))
+        })?;
+        let info = meta.info.clone();
+        lock(&self.sessions)
+            .entries
+            .insert(id.to_string(), Entry::Stopped(Box::new(meta)));
+        Ok(info)
+    }
+
+    /// Stops (and stores) every running session whose robot has sent nothing for
+    /// `silent` since its last message; returns their ids. A session still waiting for its
+    /// robot's first message is left running.
+    pub fn stop_silent_sessions(&self, silent: std::time::Duration) -> Vec<String> {
+        let quiet: Vec<String> = lock(&self.sessions)
+            .entries
+            .iter()
+            .filter_map(|(id, e)| match e {
+                Entry::Live(s) if s.silent_for().is_some_and(|d| d >= silent) => Some(id.clone()),
+                _ => None,
+            })
+            .collect();
+        quiet
+            .into_iter()
+            .filter(|id| match self.stop_because(id, StopReason::RobotSilent) {
+                Ok(_) => {
+                    tracing::info!(session = %id, silent_s = silent.as_secs_f64(), "robot silent: session stopped and stored");
+                    true
+                }
+                Err(e) => {
+                    tracing::error!(session = %id, error = %e, "stopping a silent session failed");
+                    false
+                }
+            })
+            .collect()
+    }
+
     /// Stops every running session (storing its map) and refuses new ones.
     pub fn shutdown(&self) {
         self.closing.store(true, Ordering::SeqCst);
@@ -177,7 +222,7 @@ impl Registry {
         std::thread::scope(|scope| {
             for id in &ids {
                 scope.spawn(move || {
-                    if let Err(e) = self.stop_session(id) {
+                    if let Err(e) = self.stop_because(id, StopReason::Shutdown) {
                         tracing::error!(session = %id, error = %e, "stopping at shutdown failed");
                     }
                 });
@@ -261,6 +306,7 @@ impl Registry {
             last_error: None,
             created_unix_ms: now_unix_ms(),
             stopped_unix_ms: None,
+            stop_reason: None,
         };
         Session::start(info, mapper, self.ipc.clone(), self.histogram.clone())
     }
@@ -389,20 +435,7 @@ impl Backend for Registry {
     }
 
     fn stop_session(&self, id: &str) -> Result<SessionInfo, ApiError> {
-        let session = match self.live(id)? {
-            Ok(session) => session,
-            Err(meta) => return Ok(meta.info),
-        };
-        let meta = session.stop_with(|meta, files| {
-            self.storage
-                .save_session(meta, files)
-                .map_err(|e| ApiError::internal(format!("storing session {id}: {e}")))
-        })?;
-        let info = meta.info.clone();
-        lock(&self.sessions)
-            .entries
-            .insert(id.to_string(), Entry::Stopped(Box::new(meta)));
-        Ok(info)
+        self.stop_because(id, StopReason::Requested)
     }
 
     fn pose(&self, id: &str) -> Result<PoseResponse, ApiError> {

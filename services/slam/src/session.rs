@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 
 use sketchslam_api::{
     ApiError, PoseResponse, SessionEvent, SessionInfo, SessionState, SketchTrajectoryResponse,
-    TrajectoryResponse,
+    StopReason, TrajectoryResponse,
 };
 use sketchslam_ipc::IpcConfig;
 use sketchslam_types::SensorEvent;
@@ -85,6 +85,8 @@ pub struct SessionShared {
     map_rebuilt: Condvar,
     /// The warp onto the drawing, read for each live pose.
     warp: Arc<WarpCache>,
+    /// When the robot's last message was processed; `None` before its first.
+    last_data: Mutex<Option<Instant>>,
 }
 
 impl SessionShared {
@@ -130,6 +132,7 @@ impl Session {
             mapping: AtomicBool::new(true),
             map_rebuilt: Condvar::new(),
             warp: Arc::new(WarpCache::default()),
+            last_data: Mutex::new(None),
         });
         let mapper = Arc::new(Mutex::new(mapper));
         let (intake, rx) = Intake::start(ipc, &robot_id).map_err(|e| {
@@ -169,16 +172,24 @@ impl Session {
     /// write the same files at once.
     pub fn stop_with(
         &self,
+        reason: StopReason,
         store: impl FnOnce(&SessionMeta, &SessionFiles) -> Result<(), ApiError>,
     ) -> Result<SessionMeta, ApiError> {
         let mut slot = lock(&self.stopped);
         if let Some(answer) = slot.as_ref() {
             return answer.clone();
         }
+        lock(&self.shared.info).stop_reason.get_or_insert(reason);
         let (meta, files) = self.finish();
         let answer = store(&meta, &files).map(|()| meta);
         *slot = Some(answer.clone());
         answer
+    }
+
+    /// How long since the robot's last message was processed; `None` before its first
+    /// (a session waiting for a robot that has not started is not silent).
+    pub fn silent_for(&self) -> Option<std::time::Duration> {
+        lock(&self.shared.last_data).map(|at| at.elapsed())
     }
 
     /// The current status.
@@ -468,6 +479,7 @@ fn run_mapper(
         }
         match msg {
             IntakeMsg::Event(event) => {
+                *lock(&shared.last_data) = Some(Instant::now());
                 let is_scan = matches!(event, SensorEvent::Scan(_));
                 let started = Instant::now();
                 let outcome = catch_unwind(AssertUnwindSafe(|| {

@@ -34,6 +34,10 @@ struct Args {
     /// Drawing uploads decoded at once (each holds up to ~270 MB while it runs); more wait.
     #[arg(long, env = "SKETCHSLAM_MAX_CONCURRENT_UPLOADS", default_value_t = sketchslam_api::DEFAULT_MAX_CONCURRENT_UPLOADS)]
     max_concurrent_uploads: usize,
+    /// Seconds a session's robot may send nothing before the session stops and stores
+    /// itself (its status says `robot_silent`); 0: never.
+    #[arg(long, env = "SKETCHSLAM_IDLE_STOP_S", default_value_t = 60.0)]
+    idle_stop_s: f64,
     /// HTTP connections served at once; more wait until one closes.
     #[arg(long, env = "SKETCHSLAM_MAX_CONNECTIONS", default_value_t = HttpLimits::default().max_connections)]
     max_connections: usize,
@@ -112,6 +116,11 @@ fn main() -> anyhow::Result<()> {
         max_body_bytes: args.max_body_bytes,
         http,
         max_concurrent_uploads: args.max_concurrent_uploads.max(1),
+        idle_stop: if args.idle_stop_s == 0.0 {
+            None
+        } else {
+            Some(seconds("idle-stop-s", args.idle_stop_s)?)
+        },
         ..ServiceConfig::default()
     };
     let runtime = tokio::runtime::Runtime::new().context("starting the tokio runtime")?;
