@@ -7,15 +7,15 @@
 //! owned values and an [`ApiError`] that says what was wrong in the client's terms.
 
 use axum::body::Bytes;
-use tokio::sync::broadcast;
 
 use crate::error::ApiError;
+use crate::event_log::EventSubscription;
 use crate::registration::{
     RegistrationInfo, SketchInMapResponse, TransformRequest, TransformResponse,
 };
 use crate::types::{
-    CreateSessionRequest, OccupancyGridResponse, PoseResponse, SessionEvent, SessionInfo,
-    SketchInfo, SketchSummary, SketchTrajectoryResponse, TrajectoryResponse,
+    CreateSessionRequest, OccupancyGridResponse, PoseResponse, SessionInfo, SketchInfo,
+    SketchSummary, SketchTrajectoryResponse, TrajectoryResponse,
 };
 
 /// The operations behind the HTTP API.
@@ -59,9 +59,15 @@ pub trait Backend: Send + Sync + 'static {
     fn map_yaml(&self, id: &str) -> Result<String, ApiError>;
     /// The map as ROS OccupancyGrid JSON.
     fn map_occupancy(&self, id: &str) -> Result<OccupancyGridResponse, ApiError>;
-    /// A live feed of the session's poses and status changes; the channel closes when the
-    /// session stops (at once for a stopped session).
-    fn subscribe_events(&self, id: &str) -> Result<broadcast::Receiver<SessionEvent>, ApiError>;
+    /// A live feed of the session's poses and status changes, resumed after `last_seen`
+    /// (a client's `Last-Event-ID`) when the session still keeps what followed it
+    /// ([`crate::EventLog::subscribe`]); the channel closes when the session stops (at
+    /// once for a stopped session: [`EventSubscription::ended`]).
+    fn subscribe_events(
+        &self,
+        id: &str,
+        last_seen: Option<u64>,
+    ) -> Result<EventSubscription, ApiError>;
 
     /// A `sketch` session's map laid on its drawing: the warp fitted to the walls mapped so
     /// far. `no_drawing` (422) for a session without a drawing, `not_registered` (409)

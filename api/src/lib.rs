@@ -15,6 +15,7 @@
 pub mod backend;
 pub mod client;
 pub mod error;
+pub mod event_log;
 pub mod extract;
 pub mod openapi;
 pub mod registration;
@@ -25,6 +26,7 @@ pub mod types;
 pub use backend::Backend;
 pub use client::{ClientError, EventStream, SketchslamClient};
 pub use error::{ApiError, ErrorBody, ErrorDetail};
+pub use event_log::{EventLog, EventSubscription, NumberedEvent};
 pub use openapi::ApiDoc;
 pub use registration::*;
 pub use router::{

@@ -24,6 +24,7 @@ use utoipa::OpenApi;
 
 use crate::backend::Backend;
 use crate::error::{ApiError, ErrorBody};
+use crate::event_log::{EventSubscription, NumberedEvent};
 use crate::extract::{ApiBytes, ApiJson, ApiPath, ApiQuery};
 use crate::openapi::ApiDoc;
 use crate::registration_routes::{
@@ -602,25 +603,55 @@ pub(crate) async fn session_map_yaml(
 }
 
 /// Server-sent events: `status` first, then each new `pose` and `status` change; the
-/// stream ends when the session stops.
+/// stream ends when the session stops. Every event carries an `id:`; a client that
+/// reconnects with `Last-Event-ID` gets the events it missed (of the last few hundred the
+/// session keeps) and then the live feed, without the `status` first; an id the session no
+/// longer keeps starts over with a `status`.
 #[utoipa::path(get, path = "/v1/sessions/{id}/events", tag = "sessions",
-    params(("id" = String, Path, description = "Session id")),
+    params(
+        ("id" = String, Path, description = "Session id"),
+        ("Last-Event-ID" = Option<u64>, Header, description = "Resume after this event id")),
     responses(
-        (status = 200, description = "text/event-stream of `pose` and `status` events", body = SessionEvent, content_type = "text/event-stream"),
+        (status = 200, description = "text/event-stream of `pose` and `status` events, each with an `id:`", body = SessionEvent, content_type = "text/event-stream"),
         (status = 404, description = "Unknown id", body = ErrorBody)))]
 pub(crate) async fn session_events(
     State(state): State<AppState>,
     ApiPath(id): ApiPath,
+    headers: HeaderMap,
 ) -> Result<Sse<impl Stream<Item = Result<Event, Infallible>>>, ApiError> {
-    let (status, receiver) = call(&state, move |b| {
+    // An unreadable id is no id: the stream starts over.
+    let last_seen = headers
+        .get("last-event-id")
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.trim().parse::<u64>().ok());
+    let (status, sub) = call(&state, move |b| {
         // Subscribe first so that nothing between the snapshot and the feed is missed.
-        let receiver = b.subscribe_events(&id)?;
-        Ok((b.get_session(&id)?, receiver))
+        let sub = b.subscribe_events(&id, last_seen)?;
+        Ok((b.get_session(&id)?, sub))
     })
     .await?;
-    let first = futures::stream::once(async move { SessionEvent::Status(status) });
-    let live = BroadcastStream::new(receiver).filter_map(|item| async move { item.ok() });
-    let events = first.chain(live).map(|event| Ok(to_sse(&event)));
+    let EventSubscription {
+        replay,
+        resumed,
+        last_id,
+        live,
+    } = sub;
+    let first: Vec<NumberedEvent> = if resumed {
+        replay
+    } else {
+        // The snapshot takes the id of the last event before it: resuming from it
+        // continues with what followed.
+        vec![NumberedEvent {
+            id: last_id,
+            event: SessionEvent::Status(status),
+        }]
+    };
+    let live = BroadcastStream::new(live)
+        .filter_map(|item| async move { item.ok() })
+        .filter(move |e| futures::future::ready(e.id > last_id));
+    let events = futures::stream::iter(first)
+        .chain(live)
+        .map(|e| Ok(to_sse(&e.event).id(e.id.to_string())));
     Ok(Sse::new(events).keep_alive(KeepAlive::default()))
 }
 

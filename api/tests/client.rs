@@ -93,9 +93,7 @@ async fn client_covers_every_endpoint() {
         other => panic!("expected status first, got {other:?}"),
     }
     let pose = fake.pose(&session.id).unwrap();
-    fake.events.lock().unwrap()[&session.id]
-        .send(SessionEvent::Pose(pose.clone()))
-        .unwrap();
+    fake.events.lock().unwrap()[&session.id].publish(SessionEvent::Pose(pose.clone()));
     assert_eq!(
         events.next_event().await.unwrap(),
         Some(SessionEvent::Pose(pose))

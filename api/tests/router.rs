@@ -570,9 +570,7 @@ async fn events_stream_status_then_poses_and_ends_on_stop() {
     );
     let mut body = response.into_body();
     let pose = h.fake.pose(&id).unwrap();
-    h.fake.events.lock().unwrap()[&id]
-        .send(SessionEvent::Pose(pose))
-        .unwrap();
+    h.fake.events.lock().unwrap()[&id].publish(SessionEvent::Pose(pose));
     h.fake.stop_session(&id).unwrap();
     let mut text = String::new();
     while let Some(frame) = body.frame().await {
@@ -587,6 +585,54 @@ async fn events_stream_status_then_poses_and_ends_on_stop() {
     assert_eq!(names, ["status", "pose", "status"], "{text}");
     assert!(text.contains("\"positionInitialized\":true"));
     assert!(text.contains("\"state\":\"stopped\""));
+}
+
+#[tokio::test]
+async fn a_reconnecting_client_resumes_after_its_last_event_id() {
+    let h = default_harness();
+    let id = start_session(&h).await;
+    let pose = h.fake.pose(&id).unwrap();
+    let log = h.fake.events.lock().unwrap()[&id].clone();
+    for _ in 0..3 {
+        log.publish(SessionEvent::Pose(pose.clone()));
+    }
+    drop(log);
+    let events = |last: Option<&str>| {
+        let mut req = Request::get(format!("/v1/sessions/{id}/events"));
+        if let Some(last) = last {
+            req = req.header("last-event-id", last);
+        }
+        h.app.clone().oneshot(req.body(Body::empty()).unwrap())
+    };
+    // Resumed after event 1: events 2 and 3, no status first; a fresh client and one with
+    // an id this session never gave start with the status.
+    let resumed = events(Some("1")).await.unwrap();
+    let fresh = events(None).await.unwrap();
+    let unknown = events(Some("77")).await.unwrap();
+    h.fake.stop_session(&id).unwrap();
+    let read = |response: axum::response::Response| async move {
+        let mut body = response.into_body();
+        let mut text = String::new();
+        while let Some(frame) = body.frame().await {
+            if let Ok(data) = frame.unwrap().into_data() {
+                text.push_str(&String::from_utf8_lossy(&data));
+            }
+        }
+        let pick = |prefix: &str| -> Vec<String> {
+            text.lines()
+                .filter_map(|l| l.strip_prefix(prefix).map(str::to_string))
+                .collect()
+        };
+        (pick("event: "), pick("id: "))
+    };
+    let (names, ids) = read(resumed).await;
+    assert_eq!(names, ["pose", "pose", "status"]);
+    assert_eq!(ids, ["2", "3", "4"]);
+    for response in [fresh, unknown] {
+        let (names, ids) = read(response).await;
+        assert_eq!(names, ["status", "status"]);
+        assert_eq!(ids, ["3", "4"]);
+    }
 }
 
 #[tokio::test]

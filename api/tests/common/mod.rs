@@ -7,7 +7,6 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use axum::body::Bytes;
 use sketchslam_api::*;
-use tokio::sync::broadcast;
 
 pub const PNG_MAGIC: &[u8] = b"\x89PNG\r\n\x1a\n";
 
@@ -22,7 +21,7 @@ pub fn fake_png(width: u32, height: u32, lines: usize) -> Vec<u8> {
 pub struct Fake {
     pub sketches: Mutex<BTreeMap<String, SketchInfo>>,
     pub sessions: Mutex<BTreeMap<String, SessionInfo>>,
-    pub events: Mutex<BTreeMap<String, broadcast::Sender<SessionEvent>>>,
+    pub events: Mutex<BTreeMap<String, std::sync::Arc<EventLog>>>,
     pub next: Mutex<u32>,
     /// Uploads being handled now, and the most at once so far.
     pub uploads_in_flight: AtomicUsize,
@@ -191,7 +190,7 @@ impl Backend for Fake {
         self.events
             .lock()
             .unwrap()
-            .insert(info.id.clone(), broadcast::channel(16).0);
+            .insert(info.id.clone(), std::sync::Arc::new(EventLog::new(16)));
         Ok(info)
     }
 
@@ -210,8 +209,8 @@ impl Backend for Fake {
             .ok_or_else(|| ApiError::session_not_found(id))?;
         s.state = SessionState::Stopped;
         s.stopped_unix_ms = Some(3);
-        if let Some(tx) = self.events.lock().unwrap().remove(id) {
-            let _ = tx.send(SessionEvent::Status(s.clone()));
+        if let Some(log) = self.events.lock().unwrap().remove(id) {
+            log.publish(SessionEvent::Status(s.clone()));
         }
         Ok(s.clone())
     }
@@ -312,11 +311,15 @@ impl Backend for Fake {
         })
     }
 
-    fn subscribe_events(&self, id: &str) -> Result<broadcast::Receiver<SessionEvent>, ApiError> {
+    fn subscribe_events(
+        &self,
+        id: &str,
+        last_seen: Option<u64>,
+    ) -> Result<EventSubscription, ApiError> {
         self.session(id)?;
         match self.events.lock().unwrap().get(id) {
-            Some(tx) => Ok(tx.subscribe()),
-            None => Ok(broadcast::channel(1).1),
+            Some(log) => Ok(log.subscribe(last_seen)),
+            None => Ok(EventSubscription::ended()),
         }
     }
 

@@ -10,13 +10,12 @@ use std::sync::{Arc, Mutex};
 
 use axum::body::Bytes;
 use sketchslam_api::{
-    ApiError, Backend, CreateSessionRequest, MappingMethod, OccupancyGridResponse, PoseResponse,
-    RegistrationInfo, SessionEvent, SessionInfo, SessionState, SketchInMapResponse, SketchInfo,
-    SketchSummary, SketchTrajectoryResponse, StopReason, TrajectoryResponse, TransformRequest,
-    TransformResponse,
+    ApiError, Backend, CreateSessionRequest, EventSubscription, MappingMethod,
+    OccupancyGridResponse, PoseResponse, RegistrationInfo, SessionInfo, SessionState,
+    SketchInMapResponse, SketchInfo, SketchSummary, SketchTrajectoryResponse, StopReason,
+    TrajectoryResponse, TransformRequest, TransformResponse,
 };
 use sketchslam_ipc::IpcConfig;
-use tokio::sync::broadcast;
 
 use super::RuntimeError;
 use super::codec::{
@@ -554,11 +553,15 @@ impl Backend for Registry {
         }
     }
 
-    fn subscribe_events(&self, id: &str) -> Result<broadcast::Receiver<SessionEvent>, ApiError> {
+    fn subscribe_events(
+        &self,
+        id: &str,
+        last_seen: Option<u64>,
+    ) -> Result<EventSubscription, ApiError> {
         Ok(match self.live(id)? {
-            Ok(s) => s.subscribe(),
+            Ok(s) => s.subscribe(last_seen),
             // A closed channel: the stream ends after the initial status.
-            Err(_) => broadcast::channel(1).1,
+            Err(_) => EventSubscription::ended(),
         })
     }
 

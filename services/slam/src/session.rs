@@ -19,12 +19,11 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use sketchslam_api::{
-    ApiError, PoseResponse, SessionEvent, SessionInfo, SessionState, SketchTrajectoryResponse,
-    StopReason, TrajectoryResponse,
+    ApiError, EventLog, EventSubscription, PoseResponse, SessionEvent, SessionInfo, SessionState,
+    SketchTrajectoryResponse, StopReason, TrajectoryResponse,
 };
 use sketchslam_ipc::IpcConfig;
 use sketchslam_types::SensorEvent;
-use tokio::sync::broadcast;
 
 use super::codec::{no_drawing, occupancy_response, pose_response, trajectory_response};
 use super::intake::{Intake, IntakeMsg};
@@ -44,7 +43,8 @@ use sketchslam_engine::registration::{
 use sketchslam_engine::sketch::Sketch;
 use sketchslam_engine::sketch::overlay::encode_png;
 
-/// Capacity of a session's event broadcast; a slower SSE client skips events.
+/// Events a session keeps for clients that reconnect, and the broadcast's lag bound: a
+/// slower SSE client skips events.
 const EVENT_CAPACITY: usize = 256;
 
 /// The mapper thread rebuilds a stale map once the intake has been quiet this long.
@@ -76,7 +76,7 @@ pub struct SessionShared {
     /// Odometry readings lost (the status counts scans only).
     pub odometry_lost: Mutex<u64>,
     /// The live feed.
-    pub events: broadcast::Sender<SessionEvent>,
+    pub events: EventLog,
     /// Set by a map request that found the map stale; the mapper thread rebuilds it.
     map_wanted: AtomicBool,
     /// True while the mapper thread runs.
@@ -93,7 +93,7 @@ impl SessionShared {
     fn publish_status(&self) {
         let info = lock(&self.info).clone();
         // No subscriber is not an error.
-        let _ = self.events.send(SessionEvent::Status(info));
+        self.events.publish(SessionEvent::Status(info));
     }
 }
 
@@ -127,7 +127,7 @@ impl Session {
             info: Mutex::new(info),
             pose: Mutex::new(initial_pose),
             odometry_lost: Mutex::new(0),
-            events: broadcast::channel(EVENT_CAPACITY).0,
+            events: EventLog::new(EVENT_CAPACITY),
             map_wanted: AtomicBool::new(false),
             mapping: AtomicBool::new(true),
             map_rebuilt: Condvar::new(),
@@ -208,8 +208,8 @@ impl Session {
     }
 
     /// A receiver of the live feed.
-    pub fn subscribe(&self) -> broadcast::Receiver<SessionEvent> {
-        self.shared.events.subscribe()
+    pub fn subscribe(&self, last_seen: Option<u64>) -> EventSubscription {
+        self.shared.events.subscribe(last_seen)
     }
 
     /// The trajectory so far.
@@ -527,7 +527,7 @@ fn run_mapper(
                     shared.publish_status();
                 }
                 if is_scan {
-                    let _ = shared.events.send(SessionEvent::Pose(response));
+                    shared.events.publish(SessionEvent::Pose(response));
                 }
             }
             IntakeMsg::Stats(stats) => {

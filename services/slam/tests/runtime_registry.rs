@@ -351,7 +351,7 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
         })
         .unwrap();
     let id = session.id.clone();
-    let mut events = reg.subscribe_events(&id).unwrap();
+    let mut events = reg.subscribe_events(&id, None).unwrap().live;
     assert!(!reg.pose(&id).unwrap().position_initialized);
 
     // The publisher starts after the session, sends 20 scans, and goes away.
@@ -372,8 +372,10 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
     // The live feed saw the status change and poses.
     let mut saw_pose = false;
     let mut saw_mapping = false;
+    let mut ids = Vec::new();
     while let Ok(e) = events.try_recv() {
-        match e {
+        ids.push(e.id);
+        match e.event {
             sketchslam_api::SessionEvent::Pose(_) => saw_pose = true,
             sketchslam_api::SessionEvent::Status(s) => {
                 saw_mapping |= s.state == SessionState::Mapping
@@ -381,6 +383,11 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
         }
     }
     assert!(saw_pose && saw_mapping);
+    // Numbered 1, 2, ... in order; a client that saw the first resumes with all the others.
+    assert_eq!(ids, (1..=ids.len() as u64).collect::<Vec<_>>());
+    let resumed = reg.subscribe_events(&id, Some(1)).unwrap();
+    assert!(resumed.resumed);
+    assert_eq!(resumed.replay.len(), ids.len() - 1);
     let live_grid = reg.map_occupancy(&id).unwrap();
     assert!(live_grid.data.iter().any(|&v| v >= 65));
     let metrics = reg.metrics_text();
@@ -429,7 +436,7 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
         );
     }
     assert_eq!(reg.pose(&id).unwrap().x, reg.pose(&id).unwrap().x);
-    let mut rx = reg.subscribe_events(&id).unwrap();
+    let mut rx = reg.subscribe_events(&id, None).unwrap().live;
     assert!(matches!(
         rx.try_recv(),
         Err(tokio::sync::broadcast::error::TryRecvError::Closed)
