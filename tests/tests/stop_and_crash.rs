@@ -186,14 +186,25 @@ async fn run_idle(data: &std::path::Path) -> Result<()> {
     );
     // A client's stop now waits for that one stop's save and answers it.
     let again = client.stop_session(&fed.id).await?;
-    ensure!(again.stop_reason == Some(StopReason::RobotSilent), "{again:?}");
-    ensure!(data.join("sessions").join(&fed.id).join("meta.json").exists());
+    ensure!(
+        again.stop_reason == Some(StopReason::RobotSilent),
+        "{again:?}"
+    );
+    ensure!(
+        data.join("sessions")
+            .join(&fed.id)
+            .join("meta.json")
+            .exists()
+    );
     ensure!(client.map_pgm(&fed.id).await?.starts_with(b"P5"));
     // The robot that never published: still waiting, long past the idle time.
     let still = client.get_session(&waiting.id).await?;
     ensure!(still.state == SessionState::WaitingForData, "{still:?}");
     // A client's stop says so.
     let by_hand = client.stop_session(&waiting.id).await?;
-    ensure!(by_hand.stop_reason == Some(StopReason::Requested), "{by_hand:?}");
+    ensure!(
+        by_hand.stop_reason == Some(StopReason::Requested),
+        "{by_hand:?}"
+    );
     Ok(())
 }
