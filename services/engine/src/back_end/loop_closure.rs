@@ -60,9 +60,10 @@ pub struct LoopClosureConfig {
     /// long unclosed 3 m away is then tried before the pass just behind 0.3 m away that
     /// its own loops already tie, and the loop found tells the graph the most. Default
     /// false, measured 2026-12-03 (`graph`): paper-env2 0.041 → 0.029 m, Intel 0.081 →
-    /// 0.075 m, CSAIL 0.049 → 0.047 m, three of the four generated worlds where closing
-    /// made the map worse than not closing are mended (cheap hall 18 0.073 → 0.031 m), but
-    /// school 0.077 → 0.089 m and on the 30 generated worlds 9 maps worse against 4 better,
+    /// 0.075 m, CSAIL 0.049 → 0.047 m, all three generated worlds where closing made the
+    /// map worse than not closing are mended (cheap hall 18 0.073 → 0.031 m), but two
+    /// others turn so, school 0.077 → 0.089 m and on the 30 generated worlds 9 maps worse
+    /// against 4 better,
     /// cheap corridor 17 doubled (0.050 → 0.231 m, completeness 0.51): the loosely tied
     /// pass is also where a look-alike passes the chain test. With
     /// `score_observed_only` too: paper-env2 0.018 m and school 0.044 m, but Intel 0.519 m,
