@@ -297,14 +297,28 @@ impl SketchslamClient {
 
     /// `GET /v1/sessions/{id}/events`: the live feed of poses and status changes.
     pub async fn events(&self, id: &str) -> Result<EventStream, ClientError> {
-        let response = Self::send(
-            self.request(Method::GET, &format!("/v1/sessions/{}/events", seg(id)))
-                .header(reqwest::header::ACCEPT, "text/event-stream"),
-        )
-        .await?;
+        self.events_after(id, None).await
+    }
+
+    /// The live feed resumed after `last_event_id` (what [`EventStream::last_event_id`]
+    /// said before the connection was lost): the events missed meanwhile first, when the
+    /// session still keeps them, else a fresh `status` (`Last-Event-ID`).
+    pub async fn events_after(
+        &self,
+        id: &str,
+        last_event_id: Option<u64>,
+    ) -> Result<EventStream, ClientError> {
+        let mut request = self
+            .request(Method::GET, &format!("/v1/sessions/{}/events", seg(id)))
+            .header(reqwest::header::ACCEPT, "text/event-stream");
+        if let Some(last) = last_event_id {
+            request = request.header("last-event-id", last.to_string());
+        }
+        let response = Self::send(request).await?;
         Ok(EventStream {
             body: Box::pin(response.bytes_stream()),
             buffer: String::new(),
+            last_event_id,
         })
     }
 }
@@ -328,6 +342,7 @@ type ByteStream = Pin<Box<dyn Stream<Item = reqwest::Result<Bytes>> + Send>>;
 pub struct EventStream {
     body: ByteStream,
     buffer: String,
+    last_event_id: Option<u64>,
 }
 
 impl std::fmt::Debug for EventStream {
@@ -337,11 +352,24 @@ impl std::fmt::Debug for EventStream {
 }
 
 impl EventStream {
+    /// The id of the last event read (to resume from with
+    /// [`SketchslamClient::events_after`]).
+    pub fn last_event_id(&self) -> Option<u64> {
+        self.last_event_id
+    }
+
     /// The next event; `None` once the server closed the stream (the session stopped).
     pub async fn next_event(&mut self) -> Result<Option<SessionEvent>, ClientError> {
         loop {
             while let Some(end) = self.buffer.find("\n\n") {
                 let block: String = self.buffer.drain(..end + 2).collect();
+                if let Some(id) = block
+                    .lines()
+                    .find_map(|l| l.strip_prefix("id:"))
+                    .and_then(|v| v.trim().parse().ok())
+                {
+                    self.last_event_id = Some(id);
+                }
                 if let Some(event) = parse_sse_block(&block)? {
                     return Ok(Some(event));
                 }

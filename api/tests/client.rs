@@ -96,8 +96,23 @@ async fn client_covers_every_endpoint() {
     fake.events.lock().unwrap()[&session.id].publish(SessionEvent::Pose(pose.clone()));
     assert_eq!(
         events.next_event().await.unwrap(),
-        Some(SessionEvent::Pose(pose))
+        Some(SessionEvent::Pose(pose.clone()))
     );
+    assert_eq!(events.last_event_id(), Some(1));
+    // The connection is lost; two poses are published meanwhile; the client resumes
+    // after the last id it read and gets exactly those two, not a fresh status.
+    drop(events);
+    for _ in 0..2 {
+        fake.events.lock().unwrap()[&session.id].publish(SessionEvent::Pose(pose.clone()));
+    }
+    let mut events = c.events_after(&session.id, Some(1)).await.unwrap();
+    for id in [2, 3] {
+        assert_eq!(
+            events.next_event().await.unwrap(),
+            Some(SessionEvent::Pose(pose.clone()))
+        );
+        assert_eq!(events.last_event_id(), Some(id));
+    }
 
     let stopped = c.stop_session(&session.id).await.unwrap();
     assert_eq!(stopped.state, SessionState::Stopped);
