@@ -421,25 +421,26 @@ impl LoopCloser {
         }
     }
 
-    /// What the route can have drifted between the ends of `h`: along the chain from its
-    /// older end, or from the newest of the last few loops in the graph that are older than
-    /// it (that loop tied the route to the old part of the map), whichever is tighter.
-    fn drift_since(&self, h: &LoopHypothesis) -> ChainVariance {
+    /// What the route can have drifted between keyframes `from` (older) and `to`: along the
+    /// chain from `from`, or from the newest of the last few loops in the graph that are
+    /// older than `to` (that loop tied the route to the old part of the map), whichever is
+    /// tighter.
+    fn drift_since(&self, from: usize, to: usize) -> ChainVariance {
         let nodes = self.graph.nodes();
         let noise = self.step_noise();
-        let direct = chain_variance(nodes, h.from, h.to, &noise, nodes[h.to].position());
+        let direct = chain_variance(nodes, from, to, &noise, nodes[to].position());
         self.loops
             .iter()
             .rev()
             .take(5)
-            .filter(|l| l.to < h.to)
+            .filter(|l| l.to < to)
             .map(|l| {
                 let own = ChainVariance {
                     position_m2: l.covariance[(0, 0)].max(l.covariance[(1, 1)]),
                     heading_rad2: l.covariance[(2, 2)],
                 };
-                let new = chain_variance(nodes, l.to, h.to, &noise, nodes[h.to].position());
-                let old = chain_variance(nodes, l.from, h.from, &noise, nodes[h.from].position());
+                let new = chain_variance(nodes, l.to, to, &noise, nodes[to].position());
+                let old = chain_variance(nodes, l.from, from, &noise, nodes[from].position());
                 own.plus(new).plus(old)
             })
             .fold(direct, |best, v| {
@@ -461,7 +462,7 @@ impl LoopCloser {
         let noise = self.step_noise();
         let h = &found.hypothesis;
         // A NaN distance (a singular covariance) is refused too.
-        let d2 = prior_distance_sq(nodes, h, self.drift_since(h));
+        let d2 = prior_distance_sq(nodes, h, self.drift_since(h.from, h.to));
         if d2.is_nan() || d2 > c.consistency_chi2 {
             self.rejected += 1;
             return false;
@@ -597,19 +598,10 @@ impl LoopCloser {
             .filter(|(d, _)| *d <= radius_m)
             .collect();
         if c.plausible_first {
-            let nodes = self.graph.nodes();
             let match_m2 = c.loop_sigma_m * c.loop_sigma_m;
             let mut keyed: Vec<(f64, usize)> = near
                 .iter()
-                .map(|&(d, i)| {
-                    let tie = LoopHypothesis {
-                        from: i,
-                        to: new,
-                        measurement: nodes[i].between(&nodes[new]),
-                        covariance: Matrix3::zeros(),
-                    };
-                    (d * d / (self.drift_since(&tie).position_m2 + match_m2), i)
-                })
+                .map(|&(d, i)| (d * d / (self.drift_since(i, new).position_m2 + match_m2), i))
                 .collect();
             keyed.sort_by(|a, b| a.0.total_cmp(&b.0));
             near = keyed;
