@@ -16,7 +16,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, ensure};
 use common::{
-    TempDir, dump_log, paper_env1_sketch_a, spawn_simulator_lockstep, start_service,
+    TempDir, dump_log, paper_env1_sketch_a, run_simulator_lockstep, start_service,
     start_sketch_a_session, wait_session,
 };
 use sketchslam_api::{CreateSessionRequest, MappingMethod, SessionState};
@@ -50,14 +50,7 @@ async fn run(data: &std::path::Path) -> Result<()> {
         .upload_sketch(std::fs::read(&sketch_b_cfg.image)?, Some("B"))
         .await?;
 
-    let mut sim = spawn_simulator_lockstep(&prefix, "r1", SCANS, None)?;
-    let status = tokio::task::spawn_blocking(move || {
-        let s = sim.wait_timeout(Duration::from_secs(60));
-        (sim, s)
-    })
-    .await?
-    .1?;
-    ensure!(status.success(), "simulator failed: {status}");
+    run_simulator_lockstep(&prefix, "r1", SCANS, None, Duration::from_secs(60)).await?;
     wait_session(
         &client,
         &session.id,

@@ -21,8 +21,8 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, ensure};
 use common::{
-    TempDir, dump_log, paper_env1_sketch_a, spawn_simulator_lockstep, start_service,
-    start_sketch_a_session, wait_session, wait_settled,
+    TempDir, dump_log, paper_env1_sketch_a, run_simulator_lockstep, spawn_simulator_lockstep,
+    start_service, start_sketch_a_session, wait_session, wait_settled,
 };
 use sketchslam_api::SessionState;
 use sketchslam_simulator::world::World;
@@ -101,14 +101,15 @@ async fn run(dir: &TempDir, data: &std::path::Path, strict_trajectory: bool) -> 
 
     // Second run: same robot, from the scenario's start.
     let truth2 = dir.0.join("truth2.csv");
-    let mut sim2 = spawn_simulator_lockstep(&prefix, "r1", SECOND_RUN, Some(&truth2))?;
-    let status = tokio::task::spawn_blocking(move || {
-        let s = sim2.wait_timeout(Duration::from_secs(90));
-        (sim2, s)
-    })
-    .await?
-    .1?;
-    ensure!(status.success(), "the restarted simulator failed: {status}");
+    run_simulator_lockstep(
+        &prefix,
+        "r1",
+        SECOND_RUN,
+        Some(&truth2),
+        Duration::from_secs(90),
+    )
+    .await
+    .context("the restarted simulator")?;
     let target = at_kill.scans_processed + SECOND_RUN;
     let after = wait_session(
         &client,

@@ -19,11 +19,11 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, ensure};
 use common::{
-    TempDir, dump_log, spawn_simulator_lockstep, start_service, start_sketch_a_session,
-    wait_session,
+    TempDir, dump_log, run_simulator_lockstep, start_service, start_sketch_a_session, wait_session,
 };
-use sketchslam_api::{CreateSessionRequest, MappingMethod, SessionState, StopReason};
+use sketchslam_api::{MappingMethod, SessionState, StopReason};
 use sketchslam_tests::processes::unique_prefix;
+use sketchslam_tests::session_request::baseline_session;
 
 const SCANS: u64 = 150;
 const STOPS: usize = 12;
@@ -45,14 +45,7 @@ async fn run(data: &std::path::Path) -> Result<()> {
     let mut service = start_service(data, &prefix, &[], &[]).await?;
     let client = service.client.clone();
     let (_, session) = start_sketch_a_session(&client, "r1").await?;
-    let mut sim = spawn_simulator_lockstep(&prefix, "r1", SCANS, None)?;
-    let status = tokio::task::spawn_blocking(move || {
-        let s = sim.wait_timeout(Duration::from_secs(60));
-        (sim, s)
-    })
-    .await?
-    .1?;
-    ensure!(status.success(), "simulator failed: {status}");
+    run_simulator_lockstep(&prefix, "r1", SCANS, None, Duration::from_secs(60)).await?;
     wait_session(
         &client,
         &session.id,
@@ -154,24 +147,10 @@ async fn run_idle(data: &std::path::Path) -> Result<()> {
     let prefix = unique_prefix("idlestop");
     let service = start_service(data, &prefix, &["--idle-stop-s", "2"], &[]).await?;
     let client = service.client.clone();
-    let request = |robot: &str| CreateSessionRequest {
-        robot_id: robot.into(),
-        method: MappingMethod::Odometry,
-        sketch_id: None,
-        start: None,
-        meters_per_pixel: None,
-        seed: None,
-    };
+    let request = |robot: &str| baseline_session(robot, MappingMethod::Odometry, None);
     let fed = client.create_session(&request("r1")).await?;
     let waiting = client.create_session(&request("r2")).await?;
-    let mut sim = spawn_simulator_lockstep(&prefix, "r1", 60, None)?;
-    let status = tokio::task::spawn_blocking(move || {
-        let s = sim.wait_timeout(Duration::from_secs(60));
-        (sim, s)
-    })
-    .await?
-    .1?;
-    ensure!(status.success(), "simulator failed: {status}");
+    run_simulator_lockstep(&prefix, "r1", 60, None, Duration::from_secs(60)).await?;
     let stopped = wait_session(
         &client,
         &fed.id,

@@ -107,6 +107,29 @@ pub fn spawn_simulator_lockstep(
     ChildGuard::spawn("simulator", &mut cmd)
 }
 
+/// Runs the simulator on `paper-env1` in lock-step for `robot` until it has published
+/// `max_scans` scans (writing its truth to `truth_out`) and exits; an error unless it exits
+/// successfully within `timeout`.
+pub async fn run_simulator_lockstep(
+    prefix: &str,
+    robot: &str,
+    max_scans: u64,
+    truth_out: Option<&Path>,
+    timeout: Duration,
+) -> Result<()> {
+    let mut sim = spawn_simulator_lockstep(prefix, robot, max_scans, truth_out)?;
+    let status = tokio::task::spawn_blocking(move || {
+        let s = sim.wait_timeout(timeout);
+        (sim, s)
+    })
+    .await?
+    .1?;
+    if !status.success() {
+        bail!("the simulator failed: {status}");
+    }
+    Ok(())
+}
+
 /// Polls the session every 100 ms until `done` holds (Ok), it fails, or `timeout` passes.
 pub async fn wait_session(
     client: &SketchslamClient,
