@@ -47,6 +47,10 @@ use sketchslam_engine::sketch::overlay::encode_png;
 /// slower SSE client skips events.
 const EVENT_CAPACITY: usize = 256;
 
+/// While mapping, a `status` event (scan counts, score, loops) goes out at least this often
+/// besides those sent on a change of state: the web page's health panel follows it.
+pub const STATUS_PERIOD: Duration = Duration::from_secs(1);
+
 /// The mapper thread rebuilds a stale map once the intake has been quiet this long.
 pub const IDLE_REFRESH: Duration = Duration::from_millis(50);
 
@@ -462,11 +466,20 @@ fn run_mapper(
         shared.map_rebuilt.notify_all();
         drop(m);
     };
+    let mut last_status = Instant::now();
+    // Scans processed since the last status event: sent once the robot pauses, so the last
+    // counts of a burst are not left waiting for the next scan.
+    let mut status_stale = false;
     loop {
         let msg = match rx.recv_timeout(IDLE_REFRESH) {
             Ok(msg) => msg,
             Err(RecvTimeoutError::Timeout) => {
                 refresh();
+                if status_stale {
+                    shared.publish_status();
+                    last_status = Instant::now();
+                    status_stale = false;
+                }
                 continue;
             }
             Err(RecvTimeoutError::Disconnected) => {
@@ -523,8 +536,14 @@ fn run_mapper(
                     }
                     changed
                 };
-                if state_changed {
+                // A status at least every STATUS_PERIOD while mapping, so a watcher of the
+                // event stream sees the counters move without polling.
+                if state_changed || last_status.elapsed() >= STATUS_PERIOD {
                     shared.publish_status();
+                    last_status = Instant::now();
+                    status_stale = false;
+                } else {
+                    status_stale = true;
                 }
                 if is_scan {
                     shared.events.publish(SessionEvent::Pose(response));
