@@ -10,6 +10,7 @@ use axum::body::Bytes;
 
 use crate::error::ApiError;
 use crate::event_log::EventSubscription;
+use crate::map_image::TaggedPng;
 use crate::registration::{
     RegistrationInfo, SketchInMapResponse, TransformRequest, TransformResponse,
 };
@@ -51,8 +52,9 @@ pub trait Backend: Send + Sync + 'static {
     /// A `sketch` session's trajectory on the drawing (the pose on the drawing at every
     /// stamp of [`Backend::trajectory`]); an error for a session without a drawing.
     fn sketch_trajectory(&self, id: &str) -> Result<SketchTrajectoryResponse, ApiError>;
-    /// The map as a PNG (black occupied, white free, grey unknown; north up).
-    fn map_png(&self, id: &str) -> Result<Vec<u8>, ApiError>;
+    /// The map as a PNG (black occupied, white free, grey unknown; north up) in its map
+    /// frame (resolution and origin, as `map.yaml` gives them).
+    fn map_png(&self, id: &str) -> Result<TaggedPng, ApiError>;
     /// The map as the PGM of a ROS map_server pair.
     fn map_pgm(&self, id: &str) -> Result<Vec<u8>, ApiError>;
     /// The map's ROS map_server YAML, naming `map.pgm` as its image.

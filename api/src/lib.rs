@@ -17,16 +17,19 @@ pub mod client;
 pub mod error;
 pub mod event_log;
 pub mod extract;
+pub mod map_image;
 pub mod openapi;
 pub mod registration;
 mod registration_routes;
 pub mod router;
 pub mod types;
+pub mod web;
 
 pub use backend::Backend;
 pub use client::{ClientError, EventStream, SketchslamClient};
 pub use error::{ApiError, ErrorBody, ErrorDetail};
 pub use event_log::{EventLog, EventSubscription, NumberedEvent};
+pub use map_image::{MapFrame, TaggedPng};
 pub use openapi::ApiDoc;
 pub use registration::*;
 pub use router::{

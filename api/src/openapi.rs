@@ -25,7 +25,8 @@ use crate::{registration_routes, router};
         title = "sketchslam",
         description = "Metric maps from 2D LiDAR and odometry with a hand-drawn sketch as prior. \
                        Errors are `{\"error\": {\"code\", \"message\"}}`. When the service has a \
-                       token, every request except /healthz needs `Authorization: Bearer <token>`."
+                       token, every request except /healthz and the web page's files (`/`, \
+                       `/app.css`, `/js/*`) needs `Authorization: Bearer <token>`."
     ),
     paths(
         router::healthz,

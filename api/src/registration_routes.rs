@@ -4,10 +4,12 @@
 
 use axum::Json;
 use axum::extract::State;
+use axum::http::HeaderMap;
 use axum::response::Response;
 
 use crate::error::{ApiError, ErrorBody};
 use crate::extract::{ApiJson, ApiPath};
+use crate::map_image::TaggedPng;
 use crate::registration::{
     RegistrationInfo, SketchInMapResponse, TransformRequest, TransformResponse,
 };
@@ -33,16 +35,18 @@ pub(crate) async fn session_registration(
 #[utoipa::path(get, path = "/v1/sessions/{id}/sketch-overlay.png", tag = "maps",
     params(("id" = String, Path, description = "Session id")),
     responses(
-        (status = 200, description = "PNG, the drawing's size", body = Vec<u8>, content_type = "image/png"),
+        (status = 200, description = "PNG, the drawing's size; with an ETag", body = Vec<u8>, content_type = "image/png"),
+        (status = 304, description = "Unchanged since the ETag in If-None-Match"),
         (status = 404, description = "Unknown id", body = ErrorBody),
         (status = 409, description = "Nothing mapped to lay on the drawing yet", body = ErrorBody),
         (status = 422, description = "The session maps without a drawing", body = ErrorBody)))]
 pub(crate) async fn session_sketch_overlay(
     State(state): State<AppState>,
     ApiPath(id): ApiPath,
+    headers: HeaderMap,
 ) -> Result<Response, ApiError> {
     let png = call(&state, move |b| b.sketch_overlay_on_map_png(&id)).await?;
-    Ok(with_content_type("image/png", png))
+    Ok(TaggedPng::new(png).respond(&headers))
 }
 
 /// The drawing's lines in map meters through the warp's inverse: the rooms not yet

@@ -10,7 +10,7 @@ use std::sync::{Arc, Mutex};
 use axum::body::Body;
 use axum::extract::{MatchedPath, Request, State};
 use axum::handler::Handler;
-use axum::http::{HeaderMap, StatusCode, header};
+use axum::http::{HeaderMap, HeaderName, HeaderValue, StatusCode, header};
 use axum::middleware::{self, Next};
 use axum::response::sse::{Event, KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
@@ -20,12 +20,14 @@ use futures::{Stream, StreamExt};
 use serde::Deserialize;
 use tokio_stream::wrappers::BroadcastStream;
 use tower::limit::GlobalConcurrencyLimitLayer;
+use tower_http::cors::{AllowOrigin, CorsLayer};
 use utoipa::OpenApi;
 
 use crate::backend::Backend;
 use crate::error::{ApiError, ErrorBody};
 use crate::event_log::{EventSubscription, NumberedEvent};
 use crate::extract::{ApiBytes, ApiJson, ApiPath, ApiQuery};
+use crate::map_image::{MAP_ORIGIN_X_HEADER, MAP_ORIGIN_Y_HEADER, MAP_RESOLUTION_HEADER};
 use crate::openapi::ApiDoc;
 use crate::registration_routes::{
     session_registration, session_sketch_in_map, session_sketch_in_map_png, session_sketch_overlay,
@@ -35,6 +37,7 @@ use crate::types::{
     CreateSessionRequest, HealthResponse, OccupancyGridResponse, PoseResponse, SessionEvent,
     SessionInfo, SessionList, SketchInfo, SketchList,
 };
+use crate::web;
 
 /// The default body limit: 16 MiB, far above any sketch photo worth uploading.
 pub const DEFAULT_MAX_BODY_BYTES: usize = 16 * 1024 * 1024;
@@ -42,7 +45,8 @@ pub const DEFAULT_MAX_BODY_BYTES: usize = 16 * 1024 * 1024;
 /// How the router is set up.
 #[derive(Debug, Clone)]
 pub struct RouterOptions {
-    /// When set, every request except `GET /healthz` needs `Authorization: Bearer <token>`.
+    /// When set, every request except `GET /healthz` and the web page's files
+    /// ([`web::is_public`]) needs `Authorization: Bearer <token>`.
     pub token: Option<String>,
     /// The largest request body accepted; larger ones get 413 before being read whole.
     pub max_body_bytes: usize,
@@ -50,6 +54,9 @@ pub struct RouterOptions {
     /// bodies unread. Decoding a drawing at the pixel limit holds ~270 MB while it runs, so
     /// this bounds the service's peak memory, not only its CPU.
     pub max_concurrent_uploads: usize,
+    /// Origins whose pages may call the API from a browser (CORS); `*` for any. Empty (the
+    /// default): none but the service's own page.
+    pub cors_origins: Vec<HeaderValue>,
 }
 
 impl Default for RouterOptions {
@@ -58,8 +65,38 @@ impl Default for RouterOptions {
             token: None,
             max_body_bytes: DEFAULT_MAX_BODY_BYTES,
             max_concurrent_uploads: DEFAULT_MAX_CONCURRENT_UPLOADS,
+            cors_origins: Vec::new(),
         }
     }
+}
+
+/// The CORS layer for `origins`: the API's methods, the headers a client sends (the token,
+/// JSON, `Last-Event-ID`, `If-None-Match`) and those it may read (the map's tag and frame).
+/// Preflight requests are answered here, before the token is checked: a browser sends
+/// them without it.
+fn cors_layer(origins: &[HeaderValue]) -> CorsLayer {
+    use axum::http::Method;
+    let allow_origin = if origins.iter().any(|o| o == "*") {
+        AllowOrigin::any()
+    } else {
+        AllowOrigin::list(origins.iter().cloned())
+    };
+    CorsLayer::new()
+        .allow_origin(allow_origin)
+        .allow_methods([Method::GET, Method::POST, Method::DELETE])
+        .allow_headers([
+            header::AUTHORIZATION,
+            header::CONTENT_TYPE,
+            header::IF_NONE_MATCH,
+            HeaderName::from_static("last-event-id"),
+        ])
+        .expose_headers([
+            header::ETAG,
+            MAP_RESOLUTION_HEADER,
+            MAP_ORIGIN_X_HEADER,
+            MAP_ORIGIN_Y_HEADER,
+        ])
+        .max_age(std::time::Duration::from_secs(600))
 }
 
 /// Default of [`RouterOptions::max_concurrent_uploads`].
@@ -118,7 +155,10 @@ pub fn router(backend: Arc<dyn Backend>, options: RouterOptions) -> Router {
     };
     let limit = options.max_body_bytes;
     let token: Option<Arc<str>> = options.token.map(Arc::from);
-    Router::new()
+    let app = Router::new()
+        .route("/", get(web::index))
+        .route("/js/{file}", get(web::module))
+        .route("/app.css", get(web::app_css))
         .route("/healthz", get(healthz))
         .route("/metrics", get(metrics))
         .route("/openapi.json", get(openapi_json))
@@ -166,7 +206,12 @@ pub fn router(backend: Arc<dyn Backend>, options: RouterOptions) -> Router {
             state.clone(),
             count_requests,
         ))
-        .with_state(state)
+        .with_state(state);
+    if options.cors_origins.is_empty() {
+        app
+    } else {
+        app.layer(cors_layer(&options.cors_origins))
+    }
 }
 
 /// The `method` label of a request: one of HTTP's standard methods, or `other` for any
@@ -204,7 +249,7 @@ async fn count_requests(State(state): State<AppState>, req: Request, next: Next)
 
 async fn bearer_auth(token: Option<Arc<str>>, req: Request, next: Next) -> Response {
     if let Some(token) = token
-        && req.uri().path() != "/healthz"
+        && !web::is_public(req.uri().path())
         && !bearer_matches(req.headers(), &token)
     {
         return ApiError::Unauthorized.into_response();
@@ -560,18 +605,28 @@ pub(crate) async fn session_map_json(
     call(&state, move |b| b.map_occupancy(&id)).await.map(Json)
 }
 
-/// The map as a PNG.
+/// The map as a PNG, with an `ETag` (send it back in `If-None-Match` to get `304` while the
+/// map is unchanged) and the map frame in `X-Map-Resolution-M`, `X-Map-Origin-X-M` and
+/// `X-Map-Origin-Y-M` (pixel column `c`, row `r` from the top, of an `h`-row picture is at
+/// `x = origin_x + (c + ½)·res`, `y = origin_y + (h − r − ½)·res`).
 #[utoipa::path(get, path = "/v1/sessions/{id}/map.png", tag = "maps",
-    params(("id" = String, Path, description = "Session id")),
+    params(("id" = String, Path, description = "Session id"),
+        ("If-None-Match" = Option<String>, Header, description = "The ETag of the map the client holds")),
     responses(
-        (status = 200, description = "PNG", body = Vec<u8>, content_type = "image/png"),
+        (status = 200, description = "PNG", body = Vec<u8>, content_type = "image/png",
+            headers(("ETag" = String, description = "Tag of this picture"),
+                ("X-Map-Resolution-M" = f64, description = "Meters per pixel"),
+                ("X-Map-Origin-X-M" = f64, description = "Map x of the bottom-left corner, m"),
+                ("X-Map-Origin-Y-M" = f64, description = "Map y of the bottom-left corner, m"))),
+        (status = 304, description = "Unchanged since the ETag in If-None-Match"),
         (status = 404, description = "Unknown id", body = ErrorBody)))]
 pub(crate) async fn session_map_png(
     State(state): State<AppState>,
     ApiPath(id): ApiPath,
+    headers: HeaderMap,
 ) -> Result<Response, ApiError> {
     let png = call(&state, move |b| b.map_png(&id)).await?;
-    Ok(with_content_type("image/png", png))
+    Ok(png.respond(&headers))
 }
 
 /// The map's PGM (ROS map_server).

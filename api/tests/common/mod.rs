@@ -279,9 +279,16 @@ impl Backend for Fake {
         })
     }
 
-    fn map_png(&self, id: &str) -> Result<Vec<u8>, ApiError> {
+    fn map_png(&self, id: &str) -> Result<TaggedPng, ApiError> {
         self.session(id)?;
-        Ok(PNG_MAGIC.to_vec())
+        Ok(TaggedPng::in_frame(
+            PNG_MAGIC.to_vec(),
+            MapFrame {
+                resolution_m: 0.05,
+                origin_x_m: -1.5,
+                origin_y_m: 2.25,
+            },
+        ))
     }
 
     fn map_pgm(&self, id: &str) -> Result<Vec<u8>, ApiError> {

@@ -19,7 +19,7 @@ pub struct ServiceConfig {
     pub ipc_prefix: String,
     /// How many sessions may run at once.
     pub max_sessions: usize,
-    /// When set, every request except `/healthz` needs `Authorization: Bearer <token>`.
+    /// When set, every request except `/healthz` and the web page's files needs `Authorization: Bearer <token>`.
     pub token: Option<String>,
     /// The largest accepted request body, bytes.
     pub max_body_bytes: usize,
@@ -32,6 +32,9 @@ pub struct ServiceConfig {
     /// A session whose robot has sent nothing for this long stops and stores itself;
     /// `None`: never.
     pub idle_stop: Option<std::time::Duration>,
+    /// Origins whose browser pages may call the API (CORS); `*` for any; empty: none but
+    /// the service's own page.
+    pub cors_origins: Vec<axum::http::HeaderValue>,
 }
 
 impl Default for ServiceConfig {
@@ -47,6 +50,7 @@ impl Default for ServiceConfig {
             http: HttpLimits::default(),
             max_concurrent_uploads: sketchslam_api::DEFAULT_MAX_CONCURRENT_UPLOADS,
             idle_stop: Some(std::time::Duration::from_secs(60)),
+            cors_origins: Vec::new(),
         }
     }
 }

@@ -100,6 +100,7 @@ pub async fn serve(
             token: config.token.clone(),
             max_body_bytes: config.max_body_bytes,
             max_concurrent_uploads: config.max_concurrent_uploads,
+            cors_origins: config.cors_origins.clone(),
         },
     );
     let addr = listener.local_addr().map_err(RuntimeError::Serve)?;

@@ -10,10 +10,10 @@ use std::sync::{Arc, Mutex};
 
 use axum::body::Bytes;
 use sketchslam_api::{
-    ApiError, Backend, CreateSessionRequest, EventSubscription, MappingMethod,
+    ApiError, Backend, CreateSessionRequest, EventSubscription, MapFrame, MappingMethod,
     OccupancyGridResponse, PoseResponse, RegistrationInfo, SessionInfo, SessionState,
     SketchInMapResponse, SketchInfo, SketchSummary, SketchTrajectoryResponse, StopReason,
-    TrajectoryResponse, TransformRequest, TransformResponse,
+    TaggedPng, TrajectoryResponse, TransformRequest, TransformResponse,
 };
 use sketchslam_ipc::IpcConfig;
 
@@ -469,10 +469,30 @@ impl Backend for Registry {
         }
     }
 
-    fn map_png(&self, id: &str) -> Result<Vec<u8>, ApiError> {
+    fn map_png(&self, id: &str) -> Result<TaggedPng, ApiError> {
         match self.live(id)? {
-            Ok(s) => Ok(s.grid().to_png()),
-            Err(_) => self.stored_file(id, "map.png"),
+            Ok(s) => {
+                let grid = s.grid();
+                let origin = grid.origin();
+                Ok(TaggedPng::in_frame(
+                    grid.to_png(),
+                    MapFrame {
+                        resolution_m: grid.resolution_m(),
+                        origin_x_m: origin.x,
+                        origin_y_m: origin.y,
+                    },
+                ))
+            }
+            Err(_) => {
+                let png = self.stored_file(id, "map.png")?;
+                let yaml = self.stored_file(id, "map.yaml")?;
+                match MapFrame::from_ros_yaml(&String::from_utf8_lossy(&yaml)) {
+                    Some(frame) => Ok(TaggedPng::in_frame(png, frame)),
+                    None => Err(ApiError::internal(format!(
+                        "map.yaml of session {id} names no resolution and origin"
+                    ))),
+                }
+            }
         }
     }
 

@@ -28,7 +28,7 @@ struct Args {
     /// Largest accepted request body, bytes.
     #[arg(long, env = "SKETCHSLAM_MAX_BODY_BYTES", default_value_t = sketchslam_api::DEFAULT_MAX_BODY_BYTES)]
     max_body_bytes: usize,
-    /// Bearer token required on every request except /healthz (prefer the variable).
+    /// Bearer token required on every request except /healthz and the web page's files (prefer the variable).
     #[arg(long, env = "SKETCHSLAM_TOKEN", hide_env_values = true)]
     token: Option<String>,
     /// Drawing uploads decoded at once (each holds up to ~270 MB while it runs); more wait.
@@ -49,6 +49,15 @@ struct Args {
     /// stream, once started, is not bounded).
     #[arg(long, env = "SKETCHSLAM_REQUEST_TIMEOUT_S", default_value_t = HttpLimits::default().request_timeout.as_secs_f64())]
     request_timeout_s: f64,
+    /// An origin (`https://dash.example.com`) whose browser pages may call the API (CORS);
+    /// repeat or separate with commas for several, `*` for any. Off by default: only the
+    /// service's own page at `/` can.
+    #[arg(
+        long = "cors-origin",
+        env = "SKETCHSLAM_CORS_ORIGIN",
+        value_delimiter = ','
+    )]
+    cors_origins: Vec<String>,
     /// Log as JSON lines instead of text.
     #[arg(long, env = "SKETCHSLAM_LOG_JSON")]
     log_json: bool,
@@ -82,6 +91,21 @@ async fn shutdown_signal() {
     }
 }
 
+/// A `--cors-origin` value: `*`, or `scheme://host[:port]` as a browser sends it in
+/// `Origin` (no path, no trailing slash: a browser never sends one, so it would never match).
+fn cors_origin(origin: &str) -> anyhow::Result<axum::http::HeaderValue> {
+    let ok = origin == "*"
+        || origin.split_once("://").is_some_and(|(scheme, rest)| {
+            matches!(scheme, "http" | "https") && !rest.is_empty() && !rest.contains('/')
+        });
+    anyhow::ensure!(
+        ok,
+        "--cors-origin: {origin:?} is not an origin like https://dash.example.com or *"
+    );
+    axum::http::HeaderValue::from_str(origin)
+        .with_context(|| format!("--cors-origin: {origin:?} is not a valid header value"))
+}
+
 fn main() -> anyhow::Result<()> {
     let args = Args::parse();
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
@@ -107,6 +131,13 @@ fn main() -> anyhow::Result<()> {
         request_timeout: seconds("request-timeout-s", args.request_timeout_s)?,
         ..HttpLimits::default()
     };
+    let cors_origins = args
+        .cors_origins
+        .iter()
+        .map(|o| o.trim())
+        .filter(|o| !o.is_empty())
+        .map(cors_origin)
+        .collect::<anyhow::Result<Vec<_>>>()?;
     let config = ServiceConfig {
         listen: args.listen,
         data_dir: args.data_dir,
@@ -121,6 +152,7 @@ fn main() -> anyhow::Result<()> {
         } else {
             Some(seconds("idle-stop-s", args.idle_stop_s)?)
         },
+        cors_origins,
         ..ServiceConfig::default()
     };
     let runtime = tokio::runtime::Runtime::new().context("starting the tokio runtime")?;
