@@ -10,11 +10,11 @@ use crate::registration::{
     SketchInMapResponse, SketchLineInMap, TransformRequest, TransformResponse, WarpInfo,
 };
 use crate::types::{
-    CreateSessionRequest, HealthResponse, MappingMethod, OccupancyGridResponse, PixelPoint,
-    Pose2Info, PoseResponse, SessionEvent, SessionInfo, SessionList, SessionState, SketchInfo,
-    SketchLineInfo, SketchList, SketchPoseInfo, SketchPoseSource, SketchStart, SketchSummary,
-    SketchTrajectoryPointInfo, SketchTrajectoryResponse, StopReason, TrajectoryPointInfo,
-    TrajectoryResponse,
+    CreateSessionRequest, HealthResponse, LidarMount, MappingMethod, OccupancyGridResponse,
+    PixelPoint, Pose2Info, PoseResponse, SessionEvent, SessionInfo, SessionList, SessionState,
+    SketchInfo, SketchLineInfo, SketchList, SketchPoseInfo, SketchPoseSource, SketchStart,
+    SketchSummary, SketchTrajectoryPointInfo, SketchTrajectoryResponse, StopReason,
+    TrajectoryPointInfo, TrajectoryResponse,
 };
 use crate::{registration_routes, router};
 
@@ -58,7 +58,7 @@ use crate::{registration_routes, router};
         ErrorBody, ErrorDetail, CreateSessionRequest, HealthResponse, MappingMethod,
         OccupancyGridResponse, PixelPoint, Pose2Info, PoseResponse, SessionEvent, SessionInfo,
         SessionList, SessionState, StopReason, SketchInfo, SketchLineInfo, SketchList,
-        SketchPoseInfo, SketchPoseSource,
+        SketchPoseInfo, SketchPoseSource, LidarMount,
         SketchStart, SketchSummary, SketchTrajectoryPointInfo, SketchTrajectoryResponse,
         TrajectoryPointInfo, TrajectoryResponse, RegistrationInfo, WarpInfo, SketchInMapResponse,
         SketchLineInMap, TransformRequest, TransformResponse, DrawingPointIn, DrawingPointOut,

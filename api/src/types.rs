@@ -137,6 +137,28 @@ pub struct SketchStart {
     pub heading_deg: f64,
 }
 
+/// Where the LiDAR sits on the robot: its pose in the robot frame (ROS `base_link` →
+/// laser frame). A scanner off the centre seen as if at it bends the map when the robot
+/// turns; with its mount every method maps with the scanner's true rays and reports the
+/// robot's pose.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct LidarMount {
+    /// Forward of the robot's centre, meters.
+    #[schema(example = 0.3)]
+    pub x_m: f64,
+    /// Left of the robot's centre, meters.
+    #[schema(example = 0.0)]
+    pub y_m: f64,
+    /// The scanner's zero beam, degrees counter-clockwise from the robot's heading.
+    #[schema(example = 5.0)]
+    pub yaw_deg: f64,
+}
+
+/// A LiDAR mount is refused farther than this from the robot's centre, meters: a scanner
+/// is on the robot.
+pub const MAX_LIDAR_OFFSET_M: f64 = 10.0;
+
 /// `POST /v1/sessions`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -160,6 +182,9 @@ pub struct CreateSessionRequest {
     /// lock-step input reproduce a run exactly. Default: the service's seed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub seed: Option<u64>,
+    /// Where the LiDAR sits on the robot; default: at the centre, facing forward.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lidar_mount: Option<LidarMount>,
 }
 
 fn check_finite(field: &str, value: f64) -> Result<(), ApiError> {
@@ -186,6 +211,24 @@ impl CreateSessionRequest {
     pub fn validate(&self) -> Result<(), ApiError> {
         sketchslam_types::names::validate_segment("robot_id", &self.robot_id)
             .map_err(|e| ApiError::invalid("invalid_robot_id", e.to_string()))?;
+        if let Some(m) = self.lidar_mount {
+            for (field, value) in [("lidar_mount.x_m", m.x_m), ("lidar_mount.y_m", m.y_m)] {
+                check_finite(field, value)?;
+                if value.abs() > MAX_LIDAR_OFFSET_M {
+                    return Err(ApiError::invalid_number(
+                        field,
+                        &format!("must lie within ±{MAX_LIDAR_OFFSET_M} m of the robot's centre"),
+                    ));
+                }
+            }
+            check_finite("lidar_mount.yaw_deg", m.yaw_deg)?;
+            if m.yaw_deg.abs() > MAX_HEADING_DEG {
+                return Err(ApiError::invalid_number(
+                    "lidar_mount.yaw_deg",
+                    &format!("must lie within ±{MAX_HEADING_DEG}"),
+                ));
+            }
+        }
         match self.method {
             MappingMethod::Sketch => {
                 let sketch_id = self.sketch_id.as_deref().ok_or_else(|| {
@@ -320,6 +363,10 @@ pub struct SessionInfo {
     /// Why the session stopped (absent while it runs).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stop_reason: Option<StopReason>,
+    /// Where the LiDAR sits on the robot, as the session was started with (absent: at the
+    /// centre).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lidar_mount: Option<LidarMount>,
 }
 
 /// Why a session stopped.

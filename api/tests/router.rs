@@ -548,6 +548,52 @@ async fn baseline_sessions_need_no_sketch_and_a_robot_maps_once() {
 }
 
 #[tokio::test]
+async fn a_lidar_mount_is_kept_with_the_session_and_a_bad_one_is_named() {
+    let h = default_harness();
+    for (mount, field) in [
+        (
+            json!({"x_m": 11.0, "y_m": 0.0, "yaw_deg": 0.0}),
+            "lidar_mount.x_m",
+        ),
+        (
+            json!({"x_m": 0.0, "y_m": -10.5, "yaw_deg": 0.0}),
+            "lidar_mount.y_m",
+        ),
+        (
+            json!({"x_m": 0.3, "y_m": 0.0, "yaw_deg": 400.0}),
+            "lidar_mount.yaw_deg",
+        ),
+    ] {
+        let message = post_json(
+            &h.app,
+            "/v1/sessions",
+            &json!({"robot_id": "r1", "method": "graph", "lidar_mount": mount}),
+        )
+        .await
+        .error(StatusCode::UNPROCESSABLE_ENTITY, "invalid_number");
+        assert!(message.contains(field), "{message}");
+    }
+    // A misspelt key is refused, not ignored (a mount silently dropped bends the map).
+    let a = post_json(
+        &h.app,
+        "/v1/sessions",
+        &json!({"robot_id": "r1", "method": "graph", "lidar_mount": {"x": 0.3, "y_m": 0.0, "yaw_deg": 0.0}}),
+    )
+    .await;
+    assert!(a.status.is_client_error(), "{}", a.text());
+    assert!(h.fake.sessions.lock().unwrap().is_empty());
+    let mount = json!({"x_m": 0.3, "y_m": -0.05, "yaw_deg": 5.0});
+    let a = post_json(
+        &h.app,
+        "/v1/sessions",
+        &json!({"robot_id": "r1", "method": "graph", "lidar_mount": mount}),
+    )
+    .await;
+    assert_eq!(a.status, StatusCode::CREATED, "{}", a.text());
+    assert_eq!(a.json()["lidar_mount"], mount);
+}
+
+#[tokio::test]
 async fn events_stream_status_then_poses_and_ends_on_stop() {
     let h = default_harness();
     let id = start_session(&h).await;

@@ -27,6 +27,8 @@ pub struct Lidar {
     angle_increment_rad: f32,
     max_range_m: f64,
     range_noise_m: f64,
+    /// The scanner's pose in the robot frame.
+    mount: Pose2,
 }
 
 impl Lidar {
@@ -39,7 +41,13 @@ impl Lidar {
             angle_increment_rad: (config.fov_rad / (beams - 1) as f64) as f32,
             max_range_m: config.max_range_m,
             range_noise_m: config.range_noise_m,
+            mount: config.mount,
         }
+    }
+
+    /// The scanner's pose when the robot is at `robot`: the rays of a scan start there.
+    pub fn sensor_pose(&self, robot: Pose2) -> Pose2 {
+        robot.compose(&self.mount)
     }
 
     /// Number of beams per scan.
@@ -70,10 +78,12 @@ impl Lidar {
         }
     }
 
-    /// One scan from the true `pose`: per beam the exact distance to the first wall plus
+    /// One scan with the robot at the true `pose` (the rays from the scanner's pose on it,
+    /// [`Lidar::sensor_pose`]): per beam the exact distance to the first wall plus
     /// `N(0, range_noise²)`, clamped at 0; `+inf` when the wall is beyond `max_range` or the
     /// noisy reading reaches it. Draws one standard normal per beam with a return.
     pub fn scan<R: Rng + ?Sized>(&self, world: &World, pose: Pose2, rng: &mut R) -> Vec<f32> {
+        let pose = self.sensor_pose(pose);
         let origin = pose.position();
         (0..self.beams)
             .map(|i| {
@@ -108,6 +118,7 @@ mod tests {
             beams: 3,
             max_range_m: 3.0,
             range_noise_m: 0.0,
+            mount: Pose2::IDENTITY,
         };
         let lidar = Lidar::new(&config);
         let h = lidar.header(4, 7);

@@ -65,11 +65,12 @@ pub fn render_world(scenario: &Scenario, world: &World, scans_to_draw: usize) ->
         let t_s = motion.duration_s() * (k as f64 + 0.5) / scans_to_draw as f64;
         let pose = motion.pose_at(t_s);
         let ranges_m = lidar.scan(world, pose, &mut rng);
+        let sensor = lidar.sensor_pose(pose);
         for (i, &r) in ranges_m.iter().enumerate() {
             if r.is_finite() {
                 let a = lidar.beam_angle_rad(i);
                 let local = Point2::new(r as f64 * a.cos(), r as f64 * a.sin());
-                canvas.dot(pose.transform_point(&local), 1, SCAN_POINT);
+                canvas.dot(sensor.transform_point(&local), 1, SCAN_POINT);
             }
         }
         canvas.dot(pose.position(), 4, SCAN_POSE);

@@ -65,7 +65,8 @@ pub struct RobotConfig {
     pub turn_rate_rad_s: f64,
 }
 
-/// `[lidar]`: a planar scanner centred on the robot's heading.
+/// `[lidar]`: a planar scanner, at the robot's centre facing its heading unless `mount`
+/// says otherwise.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LidarConfig {
     /// Scans per second.
@@ -78,6 +79,9 @@ pub struct LidarConfig {
     pub max_range_m: f64,
     /// Standard deviation of the Gaussian range noise, meters.
     pub range_noise_m: f64,
+    /// Where the scanner sits on the robot: its pose in the robot frame (forward, left,
+    /// yaw); the file's `mount = [x_m, y_m, yaw_deg]`, default at the centre.
+    pub mount: Pose2,
 }
 
 /// `[odometry]`: the wheel-odometry error model (see [`crate::odometry`]).
@@ -188,7 +192,23 @@ impl LidarConfig {
                 ),
             });
         }
-        non_negative("range_noise", self.range_noise_m, "meters")
+        non_negative("range_noise", self.range_noise_m, "meters")?;
+        let m = self.mount;
+        // A scanner is on the robot: within a few meters of its centre, yaw within a turn.
+        if !(m.is_finite() && m.x.abs() <= 5.0 && m.y.abs() <= 5.0)
+            || m.heading_rad.abs() > std::f64::consts::TAU + 1e-12
+        {
+            return Err(ConfigProblem {
+                key: "mount",
+                message: format!(
+                    "must be [x_m, y_m, yaw_deg] with |x|, |y| ≤ 5 m and |yaw| ≤ 360°, got [{}, {}, {}]",
+                    m.x,
+                    m.y,
+                    m.heading_rad.to_degrees()
+                ),
+            });
+        }
+        Ok(())
     }
 }
 
@@ -290,6 +310,9 @@ struct LidarTable {
     beams: usize,
     max_range: f64,
     range_noise: f64,
+    /// `[x_m, y_m, yaw_deg]`: the scanner's pose on the robot.
+    #[serde(default)]
+    mount: Option<[f64; 3]>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -402,6 +425,9 @@ impl ScenarioFile {
             beams: self.lidar.beams,
             max_range_m: self.lidar.max_range,
             range_noise_m: self.lidar.range_noise,
+            mount: self.lidar.mount.map_or(Pose2::IDENTITY, |[x, y, yaw_deg]| {
+                Pose2::new(x, y, yaw_deg.to_radians())
+            }),
         };
         if let Err(p) = lidar.validate() {
             return Err(ctx.invalid(Table::Named("lidar"), p.key, p.message));

@@ -214,6 +214,16 @@ fn bad_numbers_are_named() {
             &["lidar.range_noise"],
         ),
         ("max_range = 10.0", "max_range = 0.01", &["lidar.max_range"]),
+        (
+            "range_noise = 0.01",
+            "range_noise = 0.01\nmount = [7.0, 0.0, 0.0]",
+            &["lidar.mount", "5 m"],
+        ),
+        (
+            "range_noise = 0.01",
+            "range_noise = 0.01\nmount = [0.3, 0.0]",
+            &["mount"],
+        ),
         ("rate_hz = 50.0", "rate_hz = 0.0", &["odometry.rate_hz"]),
         (
             "trans_noise = 0.03",

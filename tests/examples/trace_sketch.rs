@@ -33,6 +33,7 @@ fn main() -> anyhow::Result<()> {
             seed: scenario.seed,
             sketch_heading_gain: gain,
             keyframe_icp_reference: reference,
+            lidar_mount: scenario.lidar.mount,
             ..Default::default()
         },
     )?;

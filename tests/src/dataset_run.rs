@@ -114,6 +114,7 @@ pub fn run_dataset_real_process(
         dir: &dataset.dir,
         seed: dataset.seed,
         scans: Replay::new(dataset)?.scan_count(),
+        lidar_mount: sketchslam_types::Pose2::IDENTITY,
     };
     let mapped = map_through_processes(&source, method, sketch, out_dir, max_scans, progress)?;
     let truth = read_trajectory_csv(&out_dir.join("truth.csv"))?;

@@ -21,8 +21,9 @@ use crate::session_request::{baseline_session, sketch_session};
 use crate::sketch_truth::{fill_sketch_pose_scores, score_published_poses};
 use anyhow::{Context, Result, bail};
 use sketchslam_api::{
-    ClientError, DrawingPointOut, MAX_TRANSFORM_POINTS, MapPointIn, SessionEvent, SketchPoseInfo,
-    SketchslamClient, TrajectoryPointInfo, TransformRequest,
+    ClientError, CreateSessionRequest, DrawingPointOut, LidarMount, MAX_TRANSFORM_POINTS,
+    MapPointIn, SessionEvent, SketchPoseInfo, SketchslamClient, TrajectoryPointInfo,
+    TransformRequest,
 };
 use sketchslam_engine::mapper::Method;
 use sketchslam_engine::sketch::SketchPose;
@@ -66,6 +67,7 @@ pub fn run_real_process(
         dir: &scenario.dir,
         seed: scenario.seed,
         scans: Simulation::new(scenario)?.scan_count(),
+        lidar_mount: scenario.lidar.mount,
     };
     let mapped = map_through_processes(&source, method, sketch, out_dir, max_scans, progress)?;
     let world = World::load(&scenario.world.image, scenario.world.resolution_m)?;
@@ -121,6 +123,8 @@ pub struct StreamSource<'a> {
     pub seed: u64,
     /// Scans in the whole stream.
     pub scans: u64,
+    /// Where the stream's LiDAR sits on the robot (sent with the session).
+    pub lidar_mount: Pose2,
 }
 
 /// What the service reported once a run through the processes was done.
@@ -188,6 +192,15 @@ pub fn map_through_processes(
         }
         (Method::Sketch, None) => bail!("the sketch method needs a sketch"),
         (m, _) => baseline_session(ROBOT_ID, api_method(m), Some(source.seed)),
+    };
+    let mount = source.lidar_mount;
+    let request = CreateSessionRequest {
+        lidar_mount: (mount != Pose2::IDENTITY).then(|| LidarMount {
+            x_m: mount.x,
+            y_m: mount.y,
+            yaw_deg: mount.heading_rad.to_degrees(),
+        }),
+        ..request
     };
     let session = runtime.block_on(client.create_session(&request))?;
     // The poses as a live client sees them (map frame, and on the drawing), until the

@@ -182,7 +182,23 @@ pub fn run_in_process(
     max_scans: Option<u64>,
     progress: impl FnMut(u64, u64),
 ) -> Result<RunResult> {
-    let run_method: RunMethod = method.into();
+    let run_method = RunMethod {
+        lidar_mount: scenario.lidar.mount,
+        ..method.into()
+    };
+    run_in_process_as(scenario, run_method, sketch, out_dir, max_scans, progress)
+}
+
+/// [`run_in_process`] with `run_method` exactly as given, its LiDAR mount included (a test
+/// tells the mapper a wrong one to see what the right one is worth).
+pub fn run_in_process_as(
+    scenario: &Scenario,
+    run_method: RunMethod,
+    sketch: Option<&SketchConfig>,
+    out_dir: &Path,
+    max_scans: Option<u64>,
+    progress: impl FnMut(u64, u64),
+) -> Result<RunResult> {
     let method = run_method.method;
     let world = World::load(&scenario.world.image, scenario.world.resolution_m)?;
     let sim = Simulation::new(scenario)?;
@@ -245,12 +261,14 @@ pub fn seen_wall_pixels(
     let step_rad = lidar.fov_rad / (lidar.beams.max(2) - 1) as f64;
     let mut seen = HashSet::new();
     for t in truth {
+        // The rays start at the scanner, wherever it sits on the robot.
+        let sensor = t.pose.compose(&lidar.mount);
         for i in (0..lidar.beams).step_by(SEEN_WALL_BEAM_STRIDE) {
-            let angle = t.pose.heading_rad - 0.5 * lidar.fov_rad + i as f64 * step_rad;
-            if let Some(r) = world.cast(t.pose.position(), angle, lidar.max_range_m) {
+            let angle = sensor.heading_rad - 0.5 * lidar.fov_rad + i as f64 * step_rad;
+            if let Some(r) = world.cast(sensor.position(), angle, lidar.max_range_m) {
                 // Half a pixel past the boundary lands inside the wall pixel hit.
                 let d = r + 0.5 * walls.resolution_m;
-                let p = Point2::new(t.pose.x + d * angle.cos(), t.pose.y + d * angle.sin());
+                let p = Point2::new(sensor.x + d * angle.cos(), sensor.y + d * angle.sin());
                 if let Some(px) = walls.pixel_of(p).filter(|(c, r)| walls.is_wall(*c, *r)) {
                     seen.insert(px);
                 }

@@ -110,7 +110,7 @@ pub fn map_in_process(
     std::fs::write(out_dir.join("map.yaml"), grid.to_yaml("map.pgm"))?;
     std::fs::write(
         out_dir.join("trajectory.csv"),
-        trajectory_csv(mapper.trajectory()),
+        trajectory_csv(&mapper.trajectory()),
     )?;
     sketchslam_simulator::truth::write_truth_csv(&out_dir.join("truth.csv"), &truth)?;
     std::fs::write(out_dir.join(ONLINE_TRAJECTORY_FILE), trajectory_csv(&live))?;

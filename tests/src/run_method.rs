@@ -3,6 +3,7 @@
 //! show what closing loops adds — or costs.
 
 use sketchslam_engine::mapper::{MapperConfig, Method};
+use sketchslam_types::Pose2;
 use std::fmt;
 use std::str::FromStr;
 
@@ -10,12 +11,15 @@ use std::str::FromStr;
 const OPEN_SUFFIX: &str = "-open";
 
 /// An engine method and whether its back end closes loops.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RunMethod {
     /// The engine's method.
     pub method: Method,
     /// False: the mapper runs without loop closure (`MapperConfig::loop_closure = None`).
     pub loop_closure: bool,
+    /// Where the LiDAR sits on the robot (the stream's, not the method's: set from the
+    /// scenario by the runs; zero by default).
+    pub lidar_mount: Pose2,
 }
 
 impl From<Method> for RunMethod {
@@ -23,6 +27,7 @@ impl From<Method> for RunMethod {
         RunMethod {
             method,
             loop_closure: true,
+            lidar_mount: Pose2::IDENTITY,
         }
     }
 }
@@ -34,6 +39,7 @@ impl RunMethod {
         MapperConfig {
             seed,
             loop_closure: defaults.loop_closure.filter(|_| self.loop_closure),
+            lidar_mount: self.lidar_mount,
             ..defaults
         }
     }
@@ -65,6 +71,7 @@ impl FromStr for RunMethod {
         Ok(RunMethod {
             method,
             loop_closure,
+            lidar_mount: Pose2::IDENTITY,
         })
     }
 }

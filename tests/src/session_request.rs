@@ -30,6 +30,7 @@ pub fn sketch_session(
         start: Some(sketch_start(cfg)),
         meters_per_pixel: Some(cfg.meters_per_pixel),
         seed,
+        lidar_mount: None,
     }
 }
 
@@ -46,5 +47,6 @@ pub fn baseline_session(
         start: None,
         meters_per_pixel: None,
         seed,
+        lidar_mount: None,
     }
 }

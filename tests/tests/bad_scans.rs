@@ -189,6 +189,7 @@ async fn run(data: &std::path::Path) -> Result<()> {
             start: None,
             meters_per_pixel: None,
             seed: Some(1),
+            lidar_mount: None,
         })
         .await?;
     let p = prefix.clone();

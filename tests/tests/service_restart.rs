@@ -69,6 +69,7 @@ async fn run(data: &std::path::Path) -> Result<()> {
             start: None,
             meters_per_pixel: None,
             seed: None,
+            lidar_mount: None,
         })
         .await?;
 

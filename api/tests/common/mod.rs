@@ -185,6 +185,7 @@ impl Backend for Fake {
             created_unix_ms: 2,
             stopped_unix_ms: None,
             stop_reason: None,
+            lidar_mount: r.lidar_mount,
         };
         sessions.insert(info.id.clone(), info.clone());
         self.events

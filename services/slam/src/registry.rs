@@ -280,6 +280,10 @@ impl Registry {
         if let Some(seed) = request.seed {
             mapper_config.seed = seed;
         }
+        if let Some(m) = request.lidar_mount {
+            mapper_config.lidar_mount =
+                sketchslam_types::Pose2::new(m.x_m, m.y_m, m.yaw_deg.to_radians());
+        }
         let mapper = Mapper::new(method, prior, mapper_config).map_err(|e| match e {
             EngineError::InvalidParameter { name, reason } => {
                 ApiError::invalid("invalid_parameter", format!("{name}: {reason}"))
@@ -306,6 +310,7 @@ impl Registry {
             created_unix_ms: now_unix_ms(),
             stopped_unix_ms: None,
             stop_reason: None,
+            lidar_mount: request.lidar_mount,
         };
         Session::start(info, mapper, self.ipc.clone(), self.histogram.clone())
     }

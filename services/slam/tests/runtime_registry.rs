@@ -211,6 +211,7 @@ fn sketches_are_ingested_and_starts_validated() {
         }),
         meters_per_pixel: Some(0.1),
         seed: None,
+        lidar_mount: None,
     };
     let outside = reg
         .create_session(request(info.width_px as f64 + 3.0, 10.0))
@@ -272,6 +273,7 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
             }),
             meters_per_pixel: Some(0.1),
             seed: None,
+            lidar_mount: None,
         })
         .unwrap();
     let baseline = reg
@@ -282,6 +284,7 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
             start: None,
             meters_per_pixel: None,
             seed: None,
+            lidar_mount: None,
         })
         .unwrap();
     let id = session.id.clone();
@@ -348,6 +351,7 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
             start: None,
             meters_per_pixel: None,
             seed: None,
+            lidar_mount: None,
         })
         .unwrap();
     let id = session.id.clone();
@@ -455,6 +459,7 @@ fn fleets_run_side_by_side_within_the_limit() {
         start: None,
         meters_per_pixel: None,
         seed: None,
+        lidar_mount: None,
     };
     let ids: Vec<String> = (0..4)
         .map(|i| reg.create_session(req(&format!("r{i}"))).unwrap().id)

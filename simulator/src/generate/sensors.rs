@@ -8,6 +8,7 @@ use super::LidarGrade;
 use crate::scenario::{LidarConfig, OdometryConfig};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
+use sketchslam_types::Pose2;
 
 /// `v` rounded to `digits` decimals.
 fn round(v: f64, digits: i32) -> f64 {
@@ -36,6 +37,7 @@ pub fn pick(grade: LidarGrade, rng: &mut ChaCha8Rng) -> (LidarConfig, OdometryCo
                 beams: 1081,
                 max_range_m: round(rng.random_range(30.0..50.0), 0),
                 range_noise_m: 0.02,
+                mount: Pose2::IDENTITY,
             },
             OdometryConfig {
                 rate_hz: 50.0,
@@ -66,6 +68,7 @@ pub fn pick(grade: LidarGrade, rng: &mut ChaCha8Rng) -> (LidarConfig, OdometryCo
                     beams,
                     max_range_m,
                     range_noise_m: 0.03,
+                    mount: Pose2::IDENTITY,
                 },
                 OdometryConfig {
                     rate_hz: 50.0,

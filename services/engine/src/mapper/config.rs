@@ -8,6 +8,7 @@ use crate::scan_matching::icp::IcpConfig;
 use crate::scan_matching::odometry_noise::OdometryNoise;
 use crate::sketch::{Sketch, SketchPose};
 use serde::{Deserialize, Serialize};
+use sketchslam_types::Pose2;
 use std::sync::Arc;
 
 /// The drawing a `sketch` session localizes on, with the start a person marked on it.
@@ -79,6 +80,10 @@ pub struct MapperConfig {
     pub registration: FitConfig,
     /// Seed of every random draw of the session.
     pub seed: u64,
+    /// Where the LiDAR sits on the robot: the robot→LiDAR transform (forward, left, yaw),
+    /// the pose of the scan's origin in the robot frame. Every method runs on the LiDAR's
+    /// poses (scans are rays from it, odometry is carried to it) and reports the robot's.
+    pub lidar_mount: Pose2,
 }
 
 impl Default for MapperConfig {
@@ -95,6 +100,7 @@ impl Default for MapperConfig {
             loop_closure: Some(LoopClosureConfig::default()),
             registration: FitConfig::default(),
             seed: 1,
+            lidar_mount: Pose2::IDENTITY,
         }
     }
 }

@@ -35,6 +35,10 @@
 //! time, so a scan's correction spreads over the stretch before it (a log keeping one scan
 //! a second leaves a second of raw odometry between two corrected poses).
 //!
+//! A LiDAR off the robot's centre ([`MapperConfig::lidar_mount`]): everything inside runs
+//! on the LiDAR's poses and the robot's come out ([`lidar_mount`]); the map frame is the
+//! robot's either way.
+//!
 //! Pure: no threads, clocks or I/O; its randomness comes from seeded ChaCha streams.
 
 mod between_scans;
@@ -43,6 +47,7 @@ mod frame;
 mod front_end;
 mod front_end_io;
 mod keyframe_icp;
+mod lidar_mount;
 mod method;
 mod output;
 mod sketch_front_end;
@@ -50,6 +55,7 @@ mod sketch_front_end;
 pub use config::{IcpReference, MapperConfig, SketchPrior};
 pub use frame::ScanFrame;
 pub use front_end_io::{FrontEndInput, FrontEndOutput, SketchReport};
+pub use lidar_mount::LidarMount;
 pub use method::Method;
 pub use output::{
     ClosedLoop, DrawingPoint, DrawingPoseSource, Health, PoseEstimate, TrajectoryPoint,
@@ -68,6 +74,7 @@ use front_end::FrontEnd;
 use keyframe_icp::KeyframeIcp;
 use sketch_front_end::SketchFrontEnd;
 use sketchslam_types::{Odometry, Point2, Pose2, Scan, SensorEvent};
+use std::borrow::Cow;
 
 /// Seed offset of the heading-prior stage's own random stream (distinct from the front
 /// end's, which is seeded with `MapperConfig::seed` itself).
@@ -114,6 +121,9 @@ pub struct Mapper {
     grid: OccupancyGrid,
     /// Map pose of the robot at the start (identity, or the sketch's start heading).
     start_pose: Pose2,
+    /// Where the LiDAR sits on the robot. Every pose below is the LiDAR's: odometry is
+    /// carried to it on the way in, and the robot's poses are given out.
+    mount: LidarMount,
     /// First odometry reading: the map frame's anchor in the odometry frame.
     odom_origin: Option<Pose2>,
     /// Latest odometry reading.
@@ -160,6 +170,7 @@ impl Mapper {
         config: MapperConfig,
     ) -> Result<Mapper, EngineError> {
         let drawing = prior.clone().filter(|_| method == Method::Sketch);
+        let mount = LidarMount::new(config.lidar_mount);
         let (front_end, start_pose, back_end) = match method {
             Method::Odometry => (FrontEnd::Odometry, Pose2::IDENTITY, None),
             Method::Icp => (
@@ -182,7 +193,13 @@ impl Mapper {
                 })?;
                 let heading = prior.start.heading_rad;
                 let back_end = BackEnd::new(&config, Some(&prior));
-                let front_end = SketchFrontEnd::new(prior, &config)?;
+                // MCL tracks the LiDAR on the drawing: it starts where the LiDAR is when the
+                // robot stands at the marked start.
+                let lidar_prior = SketchPrior {
+                    start: mount.sketch_to_lidar(prior.start),
+                    ..prior
+                };
+                let front_end = SketchFrontEnd::new(lidar_prior, &config)?;
                 (
                     FrontEnd::Sketch(Box::new(front_end)),
                     Pose2::new(0.0, 0.0, heading),
@@ -198,11 +215,12 @@ impl Mapper {
             back_end,
             drawing,
             start_pose,
+            mount,
             odom_origin: None,
             odom_now: None,
             odom_at_fix: Pose2::IDENTITY,
             path_since_fix: OdometryPath::default(),
-            map_at_fix: start_pose,
+            map_at_fix: mount.to_lidar(start_pose),
             stamp_ns: 0,
             trajectory: Vec::new(),
             drawing_trajectory: Vec::new(),
@@ -232,10 +250,11 @@ impl Mapper {
     /// Feeds an odometry reading: the pose is carried forward by the increment since the
     /// last scan and appended to the trajectory.
     pub fn on_odometry(&mut self, odom: &Odometry) {
-        let pose = odom.pose();
-        if !pose.is_finite() {
+        let robot = odom.pose();
+        if !robot.is_finite() {
             return;
         }
+        let pose = self.mount.to_lidar(robot);
         if self.odom_origin.is_none() {
             self.odom_origin = Some(pose);
             self.odom_at_fix = pose;
@@ -323,10 +342,11 @@ impl Mapper {
 
     /// Appends a pose on the drawing, one per stamp as [`Mapper::push_trajectory`] does (a
     /// scan's MCL estimate replaces the carried pose of its stamp).
-    fn push_drawing(&mut self, stamp_ns: u64, pose: SketchPose, source: DrawingPoseSource) {
-        if !(pose.u_px.is_finite() && pose.v_px.is_finite() && pose.heading_rad.is_finite()) {
+    fn push_drawing(&mut self, stamp_ns: u64, lidar: SketchPose, source: DrawingPoseSource) {
+        if !(lidar.u_px.is_finite() && lidar.v_px.is_finite() && lidar.heading_rad.is_finite()) {
             return;
         }
+        let pose = self.mount.sketch_to_robot(lidar);
         let point = DrawingPoint {
             stamp_ns,
             pose,
@@ -437,17 +457,20 @@ impl Mapper {
         self.trajectory_odometry.push(odometry);
     }
 
-    /// The current pose estimate.
+    /// The current pose estimate, of the robot.
     pub fn pose(&self) -> PoseEstimate {
         PoseEstimate {
             stamp_ns: self.stamp_ns,
-            map: self.current_map_pose(),
-            sketch: self.front_end.sketch_pose(),
+            map: self.mount.to_robot(self.current_map_pose()),
+            sketch: self
+                .front_end
+                .sketch_pose()
+                .map(|p| self.mount.sketch_to_robot(p)),
         }
     }
 
     /// The loops in the pose graph now, by the stamps of the scans they join, with the
-    /// relative pose each holds; `None` without loop closure. For audits: a simulated run
+    /// relative pose each holds (the robot's); `None` without loop closure. For audits: a simulated run
     /// compares each with the truth.
     pub fn closed_loops(&self) -> Option<Vec<ClosedLoop>> {
         let back_end = self.back_end.as_ref()?;
@@ -460,7 +483,7 @@ impl Mapper {
                 Some(ClosedLoop {
                     from_stamp_ns: *stamps.get(l.from)?,
                     to_stamp_ns: *stamps.get(l.to)?,
-                    measurement: l.measurement,
+                    measurement: self.mount.relative_to_robot(l.measurement),
                 })
             })
             .collect();
@@ -519,9 +542,21 @@ impl Mapper {
         self.start_pose
     }
 
-    /// Every pose so far, one per odometry message and scan, in stamp order.
-    pub fn trajectory(&self) -> &[TrajectoryPoint] {
-        &self.trajectory
+    /// Every pose of the robot so far, one per odometry message and scan, in stamp order
+    /// (borrowed as held with the LiDAR at the centre, converted from the LiDAR's otherwise).
+    pub fn trajectory(&self) -> Cow<'_, [TrajectoryPoint]> {
+        if self.mount.is_identity() {
+            return Cow::Borrowed(&self.trajectory);
+        }
+        Cow::Owned(
+            self.trajectory
+                .iter()
+                .map(|t| TrajectoryPoint {
+                    stamp_ns: t.stamp_ns,
+                    pose: self.mount.to_robot(t.pose),
+                })
+                .collect(),
+        )
     }
 
     /// `sketch` sessions: the pose on the drawing at every stamp of the trajectory so far
@@ -547,7 +582,7 @@ impl Mapper {
         let map: std::collections::HashMap<u64, Pose2> = self
             .trajectory
             .iter()
-            .map(|t| (t.stamp_ns, t.pose))
+            .map(|t| (t.stamp_ns, self.mount.to_robot(t.pose)))
             .collect();
         self.drawing_trajectory
             .iter()
@@ -899,7 +934,7 @@ mod tests {
         let mut warped = 0;
         for ((d, t), mcl) in through
             .iter()
-            .zip(m.trajectory())
+            .zip(m.trajectory().iter())
             .zip(m.drawing_trajectory())
         {
             assert_eq!((d.stamp_ns, t.stamp_ns), (mcl.stamp_ns, mcl.stamp_ns));
