@@ -13,6 +13,16 @@ use thiserror::Error;
 /// An error of the simulator library.
 #[derive(Debug, Error)]
 pub enum SimError {
+    /// A ROS 2 bag cannot be used: not MCAP, a topic missing or of another type, a
+    /// message that does not decode.
+    #[error("{}: {message}", .file.display())]
+    Bag {
+        /// The bag.
+        file: PathBuf,
+        /// What is wrong, naming the topic.
+        message: String,
+    },
+
     /// A file could not be read or written.
     #[error("{}: {action}: {source}", .file.display())]
     Io {

@@ -19,6 +19,7 @@ pub mod odometry;
 pub mod publish;
 pub mod render;
 pub mod replay;
+pub mod rosbag;
 pub mod scenario;
 pub mod simulation;
 mod toml_file;

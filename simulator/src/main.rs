@@ -6,6 +6,9 @@
 //! - `simulator replay DATASET_DIR --robot ID [same options as run]` publishes a dataset's
 //!   recorded log the same way (the log's corrected poses plus seeded drift as odometry;
 //!   `--truth-out` gets the log's poses at the scans);
+//! - `simulator replay BAG.mcap --robot ID [--scan-topic /scan] [--odom-topic /odom]
+//!   [--base-frame F] [same options]` publishes a ROS 2 bag's LaserScan and Odometry, stamps
+//!   from their headers, and logs the LiDAR's mount from `/tf_static` (`rosbag` module);
 //! - `simulator render SCENARIO_DIR --out FILE.png [--scans N]` draws the scenario;
 //! - `simulator generate OUT_DIR --seed N [--kind office|corridor|hall|mixed]
 //!   [--lidar good|cheap]` writes a generated scenario folder (`generate` module).
@@ -20,6 +23,7 @@ use sketchslam_simulator::dataset::Dataset;
 use sketchslam_simulator::generate::{GenerateOptions, Kind, LidarGrade};
 use sketchslam_simulator::publish::{Pace, PublishOptions, publish_events};
 use sketchslam_simulator::replay::Replay;
+use sketchslam_simulator::rosbag::{BagTopics, read_bag};
 use sketchslam_simulator::{Scenario, SimStep, Simulation};
 use sketchslam_types::SensorEvent;
 use sketchslam_types::StampedPose;
@@ -37,7 +41,8 @@ struct Cli {
 enum Command {
     /// Simulate a scenario and publish its scans and odometry over iceoryx2.
     Run(RunArgs),
-    /// Replay a dataset's log (dataset.toml) and publish it like a simulation.
+    /// Replay a dataset's log (dataset.toml) or a ROS 2 bag (.mcap: LaserScan, Odometry,
+    /// /tf_static) and publish it like a simulation.
     Replay(RunArgs),
     /// Draw a scenario (world, path, start, a few scans) as a PNG.
     Render(RenderArgs),
@@ -62,8 +67,19 @@ struct GenerateArgs {
 
 #[derive(Debug, clap::Args)]
 struct RunArgs {
-    /// The scenario folder (holding scenario.toml; dataset.toml for `replay`).
+    /// The scenario folder (holding scenario.toml); for `replay`, a dataset folder (holding
+    /// dataset.toml) or a ROS 2 bag (`.mcap`).
     scenario_dir: PathBuf,
+    /// `replay` of a bag: the `sensor_msgs/msg/LaserScan` topic.
+    #[arg(long, default_value = "/scan")]
+    scan_topic: String,
+    /// `replay` of a bag: the `nav_msgs/msg/Odometry` topic.
+    #[arg(long, default_value = "/odom")]
+    odom_topic: String,
+    /// `replay` of a bag: the robot's frame, where `/tf_static`'s chain to the laser starts
+    /// (default: the odometry's child_frame_id, else base_link).
+    #[arg(long)]
+    base_frame: Option<String>,
     /// The robot id the messages are published under.
     #[arg(long)]
     robot: String,
@@ -148,7 +164,49 @@ fn run(args: RunArgs, replay: bool) -> Result<()> {
     if args.backpressure_timeout_ms == 0 {
         bail!("--backpressure-timeout-ms must be at least 1");
     }
-    let (steps, scan_count): (Box<dyn Iterator<Item = SimStep>>, u64) = if replay {
+    let is_bag = replay
+        && args
+            .scenario_dir
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
+    if is_bag && args.truth_out.is_some() {
+        bail!("--truth-out: a bag has no true poses");
+    }
+    let (steps, scan_count): (Box<dyn Iterator<Item = SimStep>>, u64) = if is_bag {
+        let topics = BagTopics {
+            scan: args.scan_topic.clone(),
+            odom: args.odom_topic.clone(),
+            base_frame: args.base_frame.clone(),
+        };
+        let bag = read_bag(&args.scenario_dir, &topics)?;
+        match bag.lidar_mount {
+            Some(m) => tracing::info!(
+                laser_frame = bag.laser_frame.as_deref().unwrap_or(""),
+                "the LiDAR's mount from /tf_static: start the session with \
+                 \"lidar_mount\": {{\"x_m\": {:.4}, \"y_m\": {:.4}, \"yaw_deg\": {:.3}}}",
+                m.x,
+                m.y,
+                m.heading_rad.to_degrees()
+            ),
+            None => tracing::info!("no /tf_static chain to the laser: the mount is yours to give"),
+        }
+        if bag.skipped > 0 {
+            tracing::warn!(
+                skipped = bag.skipped,
+                "messages stamped before the epoch skipped"
+            );
+        }
+        let scans = bag.scans;
+        // A bag knows no truth: the odometry stands in (truth.csv is refused above).
+        let mut odom = sketchslam_types::Pose2::IDENTITY;
+        let steps = bag.events.into_iter().map(move |event| {
+            if let SensorEvent::Odometry(o) = &event {
+                odom = o.pose();
+            }
+            SimStep { event, truth: odom }
+        });
+        (Box::new(steps), scans)
+    } else if replay {
         let dataset = Dataset::load(&args.scenario_dir)
             .with_context(|| format!("loading dataset {}", args.scenario_dir.display()))?;
         let replay = Replay::new(&dataset).context("reading the log")?;
