@@ -23,12 +23,19 @@
 //! [[sketch]]                             # as in scenario.toml
 //! ```
 //!
+//! A ROS 2 robot's recording instead of a CARMEN log: `bag = "run.mcap"` (rosbag2's MCAP,
+//! [`crate::rosbag`]) with, optionally, `scan_topic` (default `/scan`), `odom_topic`
+//! (`/odom`) and `base_frame`; no `[lidar]` table (the scans say their geometry) and no
+//! noise keys (the bag's odometry is replayed as recorded, `source = "log"`): relations, when
+//! given, score such a run; without them the map is reported alone.
+//!
 //! A log whose `ODOM` lines are the robot's raw wheel odometry (not corrected poses) says so
 //! with `[odometry] source = "log"` and no noise keys: the replay publishes that odometry as
 //! it is and adds nothing; such a log has no reference trajectory, only its relations score
 //! a run. `source = "drift"` (the default) is the table above.
 
 use crate::error::SimError;
+use crate::rosbag::BagTopics;
 use crate::scenario::{OdometryConfig, SketchConfig, SketchTable};
 use crate::toml_file::{self, Ctx, Table};
 use serde::Deserialize;
@@ -44,8 +51,11 @@ pub struct Dataset {
     pub name: String,
     /// The dataset folder (absolute).
     pub dir: PathBuf,
-    /// The CARMEN log (absolute path).
+    /// The recording (absolute path): a CARMEN log, or a ROS 2 bag when [`Dataset::bag`] is
+    /// set.
     pub log: PathBuf,
+    /// A ROS 2 bag's topics: `log` is an MCAP bag read with them.
+    pub bag: Option<BagTopics>,
     /// The relations file (absolute path), if the dataset has one.
     pub relations: Option<PathBuf>,
     /// Relation time = log timestamp + this, seconds.
@@ -106,14 +116,95 @@ impl Dataset {
         if raw.name.trim().is_empty() {
             return Err(invalid(Table::Root, "name", "must not be empty".into()));
         }
-        let log = dir.join(&raw.log);
+        let (key, recording) = match (&raw.log, &raw.bag) {
+            (Some(log), None) => ("log", log),
+            (None, Some(bag)) => ("bag", bag),
+            (Some(_), Some(_)) => {
+                return Err(invalid(
+                    Table::Root,
+                    "bag",
+                    "give either `log` (a CARMEN log) or `bag` (a ROS 2 bag), not both".into(),
+                ));
+            }
+            (None, None) => {
+                return Err(invalid(
+                    Table::Root,
+                    "log",
+                    "is missing: give `log` (a CARMEN log) or `bag` (a ROS 2 bag)".into(),
+                ));
+            }
+        };
+        let log = dir.join(recording);
         if !log.is_file() {
             return Err(invalid(
                 Table::Root,
-                "log",
+                key,
                 format!("{} is not a readable file", log.display()),
             ));
         }
+        let bag = raw.bag.as_ref().map(|_| {
+            let defaults = BagTopics::default();
+            BagTopics {
+                scan: raw.scan_topic.clone().unwrap_or(defaults.scan),
+                odom: raw.odom_topic.clone().unwrap_or(defaults.odom),
+                base_frame: raw.base_frame.clone(),
+            }
+        });
+        if bag.is_none() {
+            for (key, set) in [
+                ("scan_topic", raw.scan_topic.is_some()),
+                ("odom_topic", raw.odom_topic.is_some()),
+                ("base_frame", raw.base_frame.is_some()),
+            ] {
+                if set {
+                    return Err(invalid(Table::Root, key, "applies to a `bag` only".into()));
+                }
+            }
+        }
+        // A bag's scans carry their own geometry; a CARMEN log's need [lidar].
+        let lidar_table = match (&raw.lidar, &bag) {
+            (Some(l), _) => LidarTable {
+                fov_deg: l.fov_deg,
+                max_range: l.max_range,
+            },
+            (None, Some(_)) => LidarTable {
+                fov_deg: 360.0,
+                max_range: 1000.0,
+            },
+            (None, None) => {
+                return Err(invalid(
+                    Table::Root,
+                    "lidar",
+                    "the [lidar] table is missing (fov_deg, max_range of the log's scans)".into(),
+                ));
+            }
+        };
+        let empty_odometry = OdometryTable {
+            source: Some("log".into()),
+            trans_noise: None,
+            rot_noise: None,
+            trans_bias: None,
+            rot_bias: None,
+            seed: None,
+        };
+        let odometry_table = match (&raw.odometry, &bag) {
+            (Some(_), Some(_)) => {
+                return Err(invalid(
+                    Table::Named("odometry"),
+                    "source",
+                    "a bag's odometry is replayed as recorded: leave [odometry] out".into(),
+                ));
+            }
+            (Some(o), None) => o,
+            (None, Some(_)) => &empty_odometry,
+            (None, None) => {
+                return Err(invalid(
+                    Table::Root,
+                    "odometry",
+                    "the [odometry] table is missing".into(),
+                ));
+            }
+        };
         let relations = match &raw.relations {
             Some(r) => {
                 let path = dir.join(r);
@@ -138,26 +229,27 @@ impl Dataset {
                 ),
             ));
         }
-        let fov_rad = raw.lidar.fov_deg.to_radians();
+        let fov_rad = lidar_table.fov_deg.to_radians();
         if !(fov_rad.is_finite() && fov_rad > 0.0 && fov_rad <= std::f64::consts::TAU + 1e-12) {
             return Err(invalid(
                 Table::Named("lidar"),
                 "fov_deg",
-                format!("must be in (0, 360] degrees, got {}", raw.lidar.fov_deg),
+                format!("must be in (0, 360] degrees, got {}", lidar_table.fov_deg),
             ));
         }
-        if !(raw.lidar.max_range.is_finite() && raw.lidar.max_range > crate::lidar::RANGE_MIN_M) {
+        if !(lidar_table.max_range.is_finite() && lidar_table.max_range > crate::lidar::RANGE_MIN_M)
+        {
             return Err(invalid(
                 Table::Named("lidar"),
                 "max_range",
                 format!(
                     "must be a finite range above {} m, got {}",
                     crate::lidar::RANGE_MIN_M,
-                    raw.lidar.max_range
+                    lidar_table.max_range
                 ),
             ));
         }
-        let o = &raw.odometry;
+        let o = odometry_table;
         let noise_keys = [
             ("trans_noise", o.trans_noise),
             ("rot_noise", o.rot_noise),
@@ -224,11 +316,12 @@ impl Dataset {
             name: raw.name,
             dir,
             log,
+            bag,
             relations,
             relations_time_offset_s: raw.relations_time_offset,
             lidar: DatasetLidar {
                 fov_rad,
-                max_range_m: raw.lidar.max_range,
+                max_range_m: lidar_table.max_range,
             },
             odometry_source,
             odometry,
@@ -256,13 +349,24 @@ impl Dataset {
 #[serde(deny_unknown_fields)]
 struct DatasetFile {
     name: String,
-    log: PathBuf,
+    #[serde(default)]
+    log: Option<PathBuf>,
+    #[serde(default)]
+    bag: Option<PathBuf>,
+    #[serde(default)]
+    scan_topic: Option<String>,
+    #[serde(default)]
+    odom_topic: Option<String>,
+    #[serde(default)]
+    base_frame: Option<String>,
     #[serde(default)]
     relations: Option<PathBuf>,
     #[serde(default)]
     relations_time_offset: f64,
-    lidar: LidarTable,
-    odometry: OdometryTable,
+    #[serde(default)]
+    lidar: Option<LidarTable>,
+    #[serde(default)]
+    odometry: Option<OdometryTable>,
     #[serde(default)]
     sketch: Vec<SketchTable>,
 }

@@ -63,6 +63,7 @@ use crate::dataset::{Dataset, OdometrySource};
 use crate::error::SimError;
 use crate::lidar::RANGE_MIN_M;
 use crate::odometry::OdometryModel;
+use crate::rosbag::{BagStream, read_bag};
 use crate::simulation::{ODOMETRY_STREAM, SimStep, stream_rng};
 use sketchslam_types::{Odometry, Pose2, Scan, ScanHeader, SensorEvent};
 
@@ -74,6 +75,7 @@ pub struct Replay {
     odometry: u64,
     dropped_odometry: u64,
     note: String,
+    lidar_mount: Option<Pose2>,
 }
 
 /// A reference pose of the stream before the odometry model: what, when, where.
@@ -137,8 +139,59 @@ fn odometry_lags_one_line(odometry: &[(u64, Pose2)], scans: &[(u64, Pose2)]) -> 
 impl Replay {
     /// Reads the dataset's log and prepares the stream (the whole log is held in memory).
     pub fn new(dataset: &Dataset) -> Result<Replay, SimError> {
+        if let Some(topics) = &dataset.bag {
+            return Ok(Replay::from_bag(dataset, read_bag(&dataset.log, topics)?));
+        }
         let log = CarmenLog::read(&dataset.log)?;
         Replay::from_log(dataset, &log)
+    }
+
+    /// The stream of a ROS 2 bag: its scans and odometry as recorded. A bag holds no
+    /// reference poses; the steps' `truth` is the odometry, never scored
+    /// ([`Dataset::has_reference_poses`] is false).
+    pub fn from_bag(dataset: &Dataset, bag: BagStream) -> Replay {
+        let mut odom = Pose2::IDENTITY;
+        let odometry = bag
+            .events
+            .iter()
+            .filter(|e| matches!(e, SensorEvent::Odometry(_)))
+            .count() as u64;
+        let steps: Vec<SimStep> = bag
+            .events
+            .into_iter()
+            .map(|event| {
+                if let SensorEvent::Odometry(o) = &event {
+                    odom = o.pose();
+                }
+                SimStep { event, truth: odom }
+            })
+            .collect();
+        let mount = match bag.lidar_mount {
+            Some(m) => format!(
+                "the LiDAR's mount from /tf_static: x {:.4} m, y {:.4} m, yaw {:.3}°",
+                m.x,
+                m.y,
+                m.heading_rad.to_degrees()
+            ),
+            None => "no /tf_static chain to the laser: the LiDAR is taken to be at the centre"
+                .to_string(),
+        };
+        Replay {
+            steps: steps.into_iter(),
+            scans: bag.scans,
+            odometry,
+            dropped_odometry: 0,
+            note: format!(
+                "{}: a ROS 2 bag, its odometry replayed as recorded (no reference poses); {mount}",
+                dataset.log.display()
+            ),
+            lidar_mount: bag.lidar_mount,
+        }
+    }
+
+    /// The LiDAR's pose on the robot, when the recording says it (a bag's `/tf_static`).
+    pub fn lidar_mount(&self) -> Option<Pose2> {
+        self.lidar_mount
     }
 
     /// The stream of an already parsed `log` with `dataset`'s sensor and noise settings.
@@ -304,6 +357,7 @@ impl Replay {
             odometry,
             dropped_odometry,
             note,
+            lidar_mount: None,
         })
     }
 
@@ -401,6 +455,7 @@ mod tests {
             name: "t".into(),
             dir: PathBuf::from("/d"),
             log: PathBuf::from("/d/x.log"),
+            bag: None,
             relations: None,
             relations_time_offset_s: 0.0,
             lidar: DatasetLidar {

@@ -62,8 +62,12 @@ pub fn run_dataset_in_process(
     max_scans: Option<u64>,
     progress: impl FnMut(u64, u64),
 ) -> Result<RunResult> {
-    let method: RunMethod = method.into();
     let replay = Replay::new(dataset)?;
+    // A bag's /tf_static may say where the LiDAR sits.
+    let method = RunMethod {
+        lidar_mount: replay.lidar_mount().unwrap_or(Pose2::IDENTITY),
+        ..method.into()
+    };
     let scans = replay.scan_count();
     let run = map_in_process(
         replay,
@@ -109,13 +113,15 @@ pub fn run_dataset_real_process(
     max_scans: Option<u64>,
     progress: impl FnMut(u64, u64),
 ) -> Result<RunResult> {
+    let replay = Replay::new(dataset)?;
     let source = StreamSource {
         subcommand: "replay",
         dir: &dataset.dir,
         seed: dataset.seed,
-        scans: Replay::new(dataset)?.scan_count(),
-        lidar_mount: sketchslam_types::Pose2::IDENTITY,
+        scans: replay.scan_count(),
+        lidar_mount: replay.lidar_mount().unwrap_or(Pose2::IDENTITY),
     };
+    drop(replay);
     let mapped = map_through_processes(&source, method, sketch, out_dir, max_scans, progress)?;
     let truth = read_trajectory_csv(&out_dir.join("truth.csv"))?;
     let relations = dataset_relations(dataset)?;

@@ -2,7 +2,9 @@
 //! crate from `paper-env1` (its LiDAR mounted 0.3 m ahead and turned 5°: `LaserScan`,
 //! `Odometry` and the mount on `/tf_static`, CDR as ROS 2 writes them) reads back as the same
 //! stream and the same mount, and `simulator replay BAG.mcap` through the real processes maps
-//! to the same trajectory as `simulator run` of the scenario itself.
+//! to the same trajectory as `simulator run` of the scenario itself; a dataset folder whose
+//! `dataset.toml` names the bag (and relations made from the truth) is mapped and scored by
+//! `evaluate`'s dataset path.
 
 mod common;
 
@@ -222,5 +224,87 @@ async fn replay(dir: &Path, data: &Path) -> Result<()> {
         gap_m < 1e-3 && wrap_angle(direct.heading_rad - replayed.heading_rad).abs() < 1e-4,
         "the bag mapped to {replayed:?}, the scenario to {direct:?}"
     );
+    Ok(())
+}
+
+#[test]
+fn a_dataset_naming_a_bag_is_mapped_and_scored_by_its_relations() -> Result<()> {
+    let dir = TempDir::new("bagdataset")?;
+    let scenario = mounted_scenario(&dir.0.join("scenario"))?;
+    let data = dir.0.join("dataset");
+    std::fs::create_dir_all(&data)?;
+    // The bag, and relations between scans 20 apart from the truth (t1 t2 x y z roll pitch yaw).
+    let mut events = Vec::new();
+    let mut truth = Vec::new();
+    for step in Simulation::new(&scenario)? {
+        if let SensorEvent::Scan(_) = step.event {
+            truth.push((step.t_s(), step.truth));
+        }
+        events.push(step.event);
+        if truth.len() as u64 == SCANS {
+            break;
+        }
+    }
+    write_bag(
+        &data.join("run.mcap"),
+        &events,
+        &BagTopics::default(),
+        "laser",
+        Some(scenario.lidar.mount),
+    )?;
+    let relations: String = truth
+        .iter()
+        .zip(truth.iter().skip(20))
+        .step_by(20)
+        .map(|((t1, a), (t2, b))| {
+            let d = a.between(b);
+            format!("{t1} {t2} {} {} 0 0 0 {}\n", d.x, d.y, d.heading_rad)
+        })
+        .collect();
+    std::fs::write(data.join("run.relations"), relations)?;
+    std::fs::write(
+        data.join("dataset.toml"),
+        "name = \"bag-paper-env1\"\nbag = \"run.mcap\"\nrelations = \"run.relations\"\n",
+    )?;
+    let dataset = sketchslam_simulator::dataset::Dataset::load(&data)?;
+    ensure!(dataset.bag.is_some() && !dataset.has_reference_poses());
+    let result = sketchslam_tests::dataset_run::run_dataset_in_process(
+        &dataset,
+        sketchslam_engine::mapper::Method::Graph,
+        None,
+        &dir.0.join("out"),
+        None,
+        |_, _| {},
+    )?;
+    eprintln!(
+        "bag dataset, graph: {} scans, {} relations, translation error {:.4} m, rotation {:.3}°",
+        result.scans,
+        result.relations.unwrap_or(0),
+        result.rel_trans_m.unwrap_or(f64::NAN),
+        result.rel_rot_deg.unwrap_or(f64::NAN)
+    );
+    ensure!(result.scans == SCANS, "{} scans mapped", result.scans);
+    ensure!(
+        result.relations.unwrap_or(0) >= 10,
+        "relations: {:?}",
+        result.relations
+    );
+    // The relations are the robot's motion. The mount came from /tf_static: ignored, its 5°
+    // would turn each 0.8 m relation by 5°, about 0.07 m of error.
+    ensure!(
+        result.rel_trans_m.is_some_and(|e| e < 0.05),
+        "relation translation error {:?}",
+        result.rel_trans_m
+    );
+    ensure!(dir.0.join("out/map.pgm").is_file(), "no map written");
+    // A dataset that names both a log and a bag is refused, naming the key.
+    std::fs::write(
+        data.join("dataset.toml"),
+        "name = \"x\"\nbag = \"run.mcap\"\nlog = \"run.mcap\"\n",
+    )?;
+    let e = sketchslam_simulator::dataset::Dataset::load(&data)
+        .unwrap_err()
+        .to_string();
+    ensure!(e.contains("bag") && e.contains("not both"), "{e}");
     Ok(())
 }
