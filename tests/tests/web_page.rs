@@ -277,6 +277,17 @@ async fn drive(c: &Client, base: &str, prefix: &str, shots: &Path) -> Result<()>
         "the page to connect with the token",
     )
     .await?;
+    // What the page was refused without the token is no longer shown.
+    let stale = c
+        .execute(
+            "return document.getElementById('upload-error').textContent",
+            vec![],
+        )
+        .await?;
+    ensure!(
+        stale == json!(""),
+        "a stale error stays on the page: {stale}"
+    );
     full_page_screenshot(c, &shots.join("1-before.png"), 1280).await?;
 
     // A file that is no drawing: refused, and the page says why in the API's words.

@@ -295,6 +295,9 @@ function watch(info) {
 }
 
 async function refreshAll() {
+  // A new token: what the old one was refused is no longer news.
+  $('upload-error').textContent = '';
+  $('start-error').textContent = '';
   await checkService();
   await Promise.all([listSketches(), listSessions()]);
 }
