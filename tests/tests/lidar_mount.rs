@@ -7,51 +7,20 @@
 //! turn and part of the second leg); through the real `slam-service` and `simulator` for
 //! `graph`, the mount travelling in `POST /v1/sessions`.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 
 use anyhow::{Context, Result, ensure};
+use common::{TempDir, paper_env1_mounted};
 use sketchslam_engine::mapper::Method;
 use sketchslam_simulator::scenario::Scenario;
-use sketchslam_tests::processes::{bundled_scenario, unique_prefix};
+use sketchslam_tests::processes::bundled_scenario;
 use sketchslam_tests::real_process::run_real_process;
 use sketchslam_tests::run::{RunResult, run_in_process, run_in_process_as};
 use sketchslam_tests::run_method::RunMethod;
-use sketchslam_types::Pose2;
 
 const SCANS: u64 = 1400;
-const MOUNT: &str = "mount = [0.3, 0.0, 5.0]";
-
-/// A folder removed on drop.
-struct TempDir(PathBuf);
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-/// `paper-env1` copied into `dir` with `mount` added to its `[lidar]` table.
-fn mounted_copy(dir: &Path) -> Result<Scenario> {
-    let from = bundled_scenario("paper-env1");
-    std::fs::create_dir_all(dir)?;
-    for entry in std::fs::read_dir(&from)? {
-        let entry = entry?;
-        std::fs::copy(entry.path(), dir.join(entry.file_name()))?;
-    }
-    let toml = std::fs::read_to_string(dir.join("scenario.toml"))?;
-    ensure!(
-        toml.contains("\n[lidar]\n"),
-        "paper-env1 has no [lidar] table"
-    );
-    let toml = toml.replace("\n[lidar]\n", &format!("\n[lidar]\n{MOUNT}\n"));
-    std::fs::write(dir.join("scenario.toml"), toml)?;
-    let scenario = Scenario::load(dir)?;
-    ensure!(
-        scenario.lidar.mount != Pose2::IDENTITY,
-        "the mount was not read"
-    );
-    Ok(scenario)
-}
 
 fn run(scenario: &Scenario, method: RunMethod, out: &Path) -> Result<RunResult> {
     let sketch = (method.method == Method::Sketch)
@@ -63,9 +32,9 @@ fn run(scenario: &Scenario, method: RunMethod, out: &Path) -> Result<RunResult> 
 
 #[test]
 fn a_mounted_lidar_maps_as_well_as_a_centred_one_in_every_method() -> Result<()> {
-    let tmp = TempDir(std::env::temp_dir().join(unique_prefix("mount")));
+    let tmp = TempDir::new("mount")?;
     let centred = Scenario::load(&bundled_scenario("paper-env1"))?;
-    let mounted = mounted_copy(&tmp.0.join("scenario"))?;
+    let mounted = paper_env1_mounted(&tmp.0.join("scenario"))?;
     for method in [Method::Odometry, Method::Icp, Method::Graph, Method::Sketch] {
         let known = RunMethod {
             lidar_mount: mounted.lidar.mount,
@@ -125,8 +94,8 @@ fn a_mounted_lidar_maps_as_well_as_a_centred_one_in_every_method() -> Result<()>
 
 #[test]
 fn the_mount_travels_with_the_session_request_through_the_real_processes() -> Result<()> {
-    let tmp = TempDir(std::env::temp_dir().join(unique_prefix("mountproc")));
-    let mounted = mounted_copy(&tmp.0.join("scenario"))?;
+    let tmp = TempDir::new("mountproc")?;
+    let mounted = paper_env1_mounted(&tmp.0.join("scenario"))?;
     let through = run_real_process(
         &mounted,
         Method::Graph,

@@ -16,14 +16,13 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use anyhow::{Context, Result, ensure};
-use common::{TempDir, dump_log, start_service, wait_session};
+use common::{TempDir, dump_log, first_scans, start_service, wait_session};
 use serde_json::Value;
 use sketchslam_api::MappingMethod;
 use sketchslam_simulator::scenario::Scenario;
-use sketchslam_simulator::simulation::Simulation;
 use sketchslam_tests::processes::{bundled_scenario, unique_prefix, workspace_root};
 use sketchslam_tests::session_request::baseline_session;
-use sketchslam_types::{Odometry, ScanHeader, SensorEvent};
+use sketchslam_types::{Odometry, ScanHeader};
 
 const SCANS: u64 = 200;
 
@@ -120,23 +119,15 @@ async fn run(dir: &std::path::Path, data: &std::path::Path) -> Result<()> {
     // The recording: paper-env1's first SCANS scans and the odometry before them.
     let scenario = Scenario::load(&bundled_scenario("paper-env1"))?;
     let recording = dir.join("recording.jsonl");
+    let (events, truth) = first_scans(&scenario, SCANS)?;
     let mut file = std::io::BufWriter::new(std::fs::File::create(&recording)?);
-    let mut scans = 0;
-    let mut truth_end = None;
-    for step in Simulation::new(&scenario)? {
-        if let SensorEvent::Scan(_) = step.event {
-            scans += 1;
-            truth_end = Some(step.truth);
-        }
-        serde_json::to_writer(&mut file, &step.event)?;
+    for event in &events {
+        serde_json::to_writer(&mut file, event)?;
         file.write_all(b"\n")?;
-        if scans == SCANS {
-            break;
-        }
     }
     file.flush()?;
     drop(file);
-    let truth_end = truth_end.context("no scan")?;
+    let truth_end = truth.last().context("no scan")?.pose;
 
     let prefix = unique_prefix("pydriver");
     let service = start_service(data, &prefix, &[], &[]).await?;

@@ -13,48 +13,25 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use anyhow::{Context, Result, ensure};
-use common::{TempDir, dump_log, start_service, wait_session};
+use common::{TempDir, dump_log, first_scans, paper_env1_mounted, start_service, wait_session};
 use sketchslam_api::{LidarMount, MappingMethod, SketchslamClient};
 use sketchslam_simulator::Scenario;
 use sketchslam_simulator::rosbag::{BagTopics, read_bag, write_bag};
-use sketchslam_simulator::simulation::Simulation;
-use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario, unique_prefix};
+use sketchslam_tests::processes::{ChildGuard, binary, unique_prefix};
 use sketchslam_tests::session_request::baseline_session;
 use sketchslam_types::{Pose2, SensorEvent, wrap_angle};
 
 const SCANS: u64 = 300;
 
-/// `paper-env1` with its LiDAR 0.3 m ahead, turned 5°, in `dir`.
-fn mounted_scenario(dir: &Path) -> Result<Scenario> {
-    std::fs::create_dir_all(dir)?;
-    for entry in std::fs::read_dir(bundled_scenario("paper-env1"))? {
-        let entry = entry?;
-        std::fs::copy(entry.path(), dir.join(entry.file_name()))?;
-    }
-    let toml = std::fs::read_to_string(dir.join("scenario.toml"))?
-        .replace("\n[lidar]\n", "\n[lidar]\nmount = [0.3, 0.0, 5.0]\n");
-    std::fs::write(dir.join("scenario.toml"), toml)?;
-    Ok(Scenario::load(dir)?)
-}
-
 /// The scenario's first `SCANS` scans with their odometry.
 fn events(scenario: &Scenario) -> Result<Vec<SensorEvent>> {
-    let mut out = Vec::new();
-    let mut scans = 0;
-    for step in Simulation::new(scenario)? {
-        scans += u64::from(matches!(step.event, SensorEvent::Scan(_)));
-        out.push(step.event);
-        if scans == SCANS {
-            break;
-        }
-    }
-    Ok(out)
+    Ok(first_scans(scenario, SCANS)?.0)
 }
 
 #[test]
 fn a_bag_reads_back_as_the_stream_and_the_mount_it_was_written_from() -> Result<()> {
     let dir = TempDir::new("bagread")?;
-    let scenario = mounted_scenario(&dir.0.join("scenario"))?;
+    let scenario = paper_env1_mounted(&dir.0.join("scenario"))?;
     let original = events(&scenario)?;
     let bag = dir.0.join("run.mcap");
     let topics = BagTopics::default();
@@ -184,7 +161,7 @@ async fn replaying_the_bag_maps_like_the_scenario_itself() -> Result<()> {
 
 async fn replay(dir: &Path, data: &Path) -> Result<()> {
     let scenario_dir = dir.join("scenario");
-    let scenario = mounted_scenario(&scenario_dir)?;
+    let scenario = paper_env1_mounted(&scenario_dir)?;
     let bag = dir.join("run.mcap");
     write_bag(
         &bag,
@@ -230,21 +207,11 @@ async fn replay(dir: &Path, data: &Path) -> Result<()> {
 #[test]
 fn a_dataset_naming_a_bag_is_mapped_and_scored_by_its_relations() -> Result<()> {
     let dir = TempDir::new("bagdataset")?;
-    let scenario = mounted_scenario(&dir.0.join("scenario"))?;
+    let scenario = paper_env1_mounted(&dir.0.join("scenario"))?;
     let data = dir.0.join("dataset");
     std::fs::create_dir_all(&data)?;
     // The bag, and relations between scans 20 apart from the truth (t1 t2 x y z roll pitch yaw).
-    let mut events = Vec::new();
-    let mut truth = Vec::new();
-    for step in Simulation::new(&scenario)? {
-        if let SensorEvent::Scan(_) = step.event {
-            truth.push((step.t_s(), step.truth));
-        }
-        events.push(step.event);
-        if truth.len() as u64 == SCANS {
-            break;
-        }
-    }
+    let (events, truth) = first_scans(&scenario, SCANS)?;
     write_bag(
         &data.join("run.mcap"),
         &events,
@@ -256,9 +223,12 @@ fn a_dataset_naming_a_bag_is_mapped_and_scored_by_its_relations() -> Result<()> 
         .iter()
         .zip(truth.iter().skip(20))
         .step_by(20)
-        .map(|((t1, a), (t2, b))| {
-            let d = a.between(b);
-            format!("{t1} {t2} {} {} 0 0 0 {}\n", d.x, d.y, d.heading_rad)
+        .map(|(a, b)| {
+            let d = a.pose.between(&b.pose);
+            format!(
+                "{} {} {} {} 0 0 0 {}\n",
+                a.t_s, b.t_s, d.x, d.y, d.heading_rad
+            )
         })
         .collect();
     std::fs::write(data.join("run.relations"), relations)?;

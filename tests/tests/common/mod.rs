@@ -14,10 +14,13 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use sketchslam_api::{SessionInfo, SessionState, SketchslamClient};
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
+use sketchslam_simulator::simulation::Simulation;
 use sketchslam_tests::processes::{ChildGuard, binary, bundled_scenario, unique_prefix};
+#[allow(unused_imports)] // not every test dumps a log
 pub use sketchslam_tests::service_process::dump_log;
 use sketchslam_tests::service_process::{ServiceOptions, ServiceProcess};
 use sketchslam_tests::session_request::sketch_session;
+use sketchslam_types::{SensorEvent, StampedPose};
 
 /// A folder removed on drop.
 pub struct TempDir(pub PathBuf);
@@ -68,6 +71,52 @@ pub fn paper_env1_sketch_a() -> Result<(Scenario, SketchConfig)> {
         .context("sketch A of paper-env1")?
         .clone();
     Ok((scenario, sketch))
+}
+
+/// `paper-env1` copied into `dir` with its LiDAR mounted 0.3 m ahead of the centre and
+/// turned 5° (`mount` added to its `[lidar]` table).
+pub fn paper_env1_mounted(dir: &Path) -> Result<Scenario> {
+    std::fs::create_dir_all(dir)?;
+    for entry in std::fs::read_dir(bundled_scenario("paper-env1"))? {
+        let entry = entry?;
+        std::fs::copy(entry.path(), dir.join(entry.file_name()))?;
+    }
+    let toml = std::fs::read_to_string(dir.join("scenario.toml"))?;
+    anyhow::ensure!(
+        toml.contains("\n[lidar]\n"),
+        "paper-env1 has no [lidar] table"
+    );
+    let toml = toml.replace("\n[lidar]\n", "\n[lidar]\nmount = [0.3, 0.0, 5.0]\n");
+    std::fs::write(dir.join("scenario.toml"), toml)?;
+    let scenario = Scenario::load(dir)?;
+    anyhow::ensure!(
+        scenario.lidar.mount != sketchslam_types::Pose2::IDENTITY,
+        "the mount was not read"
+    );
+    Ok(scenario)
+}
+
+/// The first `scans` scans of `scenario` with the odometry before them, in stream order,
+/// and the truth at each scan.
+pub fn first_scans(
+    scenario: &Scenario,
+    scans: u64,
+) -> Result<(Vec<SensorEvent>, Vec<StampedPose>)> {
+    let mut events = Vec::new();
+    let mut truth = Vec::new();
+    for step in Simulation::new(scenario)? {
+        if let SensorEvent::Scan(_) = step.event {
+            truth.push(StampedPose {
+                t_s: step.t_s(),
+                pose: step.truth,
+            });
+        }
+        events.push(step.event);
+        if truth.len() as u64 == scans {
+            break;
+        }
+    }
+    Ok((events, truth))
 }
 
 /// Uploads sketch A and starts a sketch session for `robot` at its marked start.
