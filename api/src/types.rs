@@ -155,6 +155,22 @@ pub struct LidarMount {
     pub yaw_deg: f64,
 }
 
+impl LidarMount {
+    /// The mount as the LiDAR's pose in the robot frame (yaw in radians).
+    pub fn pose(&self) -> sketchslam_types::Pose2 {
+        sketchslam_types::Pose2::new(self.x_m, self.y_m, self.yaw_deg.to_radians())
+    }
+
+    /// The mount of a LiDAR at `pose` in the robot frame.
+    pub fn from_pose(pose: sketchslam_types::Pose2) -> LidarMount {
+        LidarMount {
+            x_m: pose.x,
+            y_m: pose.y,
+            yaw_deg: pose.heading_rad.to_degrees(),
+        }
+    }
+}
+
 /// A LiDAR mount is refused farther than this from the robot's centre, meters: a scanner
 /// is on the robot.
 pub const MAX_LIDAR_OFFSET_M: f64 = 10.0;

@@ -195,11 +195,7 @@ pub fn map_through_processes(
     };
     let mount = source.lidar_mount;
     let request = CreateSessionRequest {
-        lidar_mount: (mount != Pose2::IDENTITY).then(|| LidarMount {
-            x_m: mount.x,
-            y_m: mount.y,
-            yaw_deg: mount.heading_rad.to_degrees(),
-        }),
+        lidar_mount: (mount != Pose2::IDENTITY).then(|| LidarMount::from_pose(mount)),
         ..request
     };
     let session = runtime.block_on(client.create_session(&request))?;

@@ -107,11 +107,7 @@ async fn map_with(
     simulator_args: &[&std::ffi::OsStr],
 ) -> Result<Pose2> {
     let request = sketchslam_api::CreateSessionRequest {
-        lidar_mount: Some(LidarMount {
-            x_m: mount.x,
-            y_m: mount.y,
-            yaw_deg: mount.heading_rad.to_degrees(),
-        }),
+        lidar_mount: Some(LidarMount::from_pose(mount)),
         ..baseline_session(robot, MappingMethod::Graph, Some(5))
     };
     let session = client.create_session(&request).await?;

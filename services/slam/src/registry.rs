@@ -281,8 +281,7 @@ impl Registry {
             mapper_config.seed = seed;
         }
         if let Some(m) = request.lidar_mount {
-            mapper_config.lidar_mount =
-                sketchslam_types::Pose2::new(m.x_m, m.y_m, m.yaw_deg.to_radians());
+            mapper_config.lidar_mount = m.pose();
         }
         let mapper = Mapper::new(method, prior, mapper_config).map_err(|e| match e {
             EngineError::InvalidParameter { name, reason } => {
