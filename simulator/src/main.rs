@@ -178,34 +178,10 @@ fn run(args: RunArgs, replay: bool) -> Result<()> {
             odom: args.odom_topic.clone(),
             base_frame: args.base_frame.clone(),
         };
-        let bag = read_bag(&args.scenario_dir, &topics)?;
-        match bag.lidar_mount {
-            Some(m) => tracing::info!(
-                laser_frame = bag.laser_frame.as_deref().unwrap_or(""),
-                "the LiDAR's mount from /tf_static: start the session with \
-                 \"lidar_mount\": {{\"x_m\": {:.4}, \"y_m\": {:.4}, \"yaw_deg\": {:.3}}}",
-                m.x,
-                m.y,
-                m.heading_rad.to_degrees()
-            ),
-            None => tracing::info!("no /tf_static chain to the laser: the mount is yours to give"),
-        }
-        if bag.skipped > 0 {
-            tracing::warn!(
-                skipped = bag.skipped,
-                "messages stamped before the epoch skipped"
-            );
-        }
-        let scans = bag.scans;
-        // A bag knows no truth: the odometry stands in (truth.csv is refused above).
-        let mut odom = sketchslam_types::Pose2::IDENTITY;
-        let steps = bag.events.into_iter().map(move |event| {
-            if let SensorEvent::Odometry(o) = &event {
-                odom = o.pose();
-            }
-            SimStep { event, truth: odom }
-        });
-        (Box::new(steps), scans)
+        let replay = Replay::from_bag(&args.scenario_dir, read_bag(&args.scenario_dir, &topics)?);
+        tracing::info!("{}", replay.drift_note());
+        let scans = replay.scan_count();
+        (Box::new(replay), scans)
     } else if replay {
         let dataset = Dataset::load(&args.scenario_dir)
             .with_context(|| format!("loading dataset {}", args.scenario_dir.display()))?;

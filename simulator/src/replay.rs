@@ -66,6 +66,7 @@ use crate::odometry::OdometryModel;
 use crate::rosbag::{BagStream, read_bag};
 use crate::simulation::{ODOMETRY_STREAM, SimStep, stream_rng};
 use sketchslam_types::{Odometry, Pose2, Scan, ScanHeader, SensorEvent};
+use std::path::Path;
 
 /// The replay of a dataset's log: an iterator over [`SimStep`]s in stamp order.
 #[derive(Debug, Clone)]
@@ -140,16 +141,20 @@ impl Replay {
     /// Reads the dataset's log and prepares the stream (the whole log is held in memory).
     pub fn new(dataset: &Dataset) -> Result<Replay, SimError> {
         if let Some(topics) = &dataset.bag {
-            return Ok(Replay::from_bag(dataset, read_bag(&dataset.log, topics)?));
+            return Ok(Replay::from_bag(
+                &dataset.log,
+                read_bag(&dataset.log, topics)?,
+            ));
         }
         let log = CarmenLog::read(&dataset.log)?;
         Replay::from_log(dataset, &log)
     }
 
-    /// The stream of a ROS 2 bag: its scans and odometry as recorded. A bag holds no
-    /// reference poses; the steps' `truth` is the odometry, never scored
-    /// ([`Dataset::has_reference_poses`] is false).
-    pub fn from_bag(dataset: &Dataset, bag: BagStream) -> Replay {
+    /// The stream of a ROS 2 bag read from `file`: its scans and odometry as recorded. A
+    /// bag holds no reference poses; the steps' `truth` is the odometry, never scored
+    /// ([`Dataset::has_reference_poses`] is false; `simulator replay BAG.mcap` refuses
+    /// `--truth-out`). The note says the mount, in the session request's words.
+    pub fn from_bag(file: &Path, bag: BagStream) -> Replay {
         let mut odom = Pose2::IDENTITY;
         let odometry = bag
             .events
@@ -168,7 +173,8 @@ impl Replay {
             .collect();
         let mount = match bag.lidar_mount {
             Some(m) => format!(
-                "the LiDAR's mount from /tf_static: x {:.4} m, y {:.4} m, yaw {:.3}°",
+                "the LiDAR's mount from /tf_static: \"lidar_mount\": {{\"x_m\": {:.4}, \
+                 \"y_m\": {:.4}, \"yaw_deg\": {:.3}}}",
                 m.x,
                 m.y,
                 m.heading_rad.to_degrees()
@@ -176,14 +182,19 @@ impl Replay {
             None => "no /tf_static chain to the laser: the LiDAR is taken to be at the centre"
                 .to_string(),
         };
+        let skipped = match bag.skipped {
+            0 => String::new(),
+            n => format!("; {n} messages stamped before the epoch skipped"),
+        };
         Replay {
             steps: steps.into_iter(),
             scans: bag.scans,
             odometry,
             dropped_odometry: 0,
             note: format!(
-                "{}: a ROS 2 bag, its odometry replayed as recorded (no reference poses); {mount}",
-                dataset.log.display()
+                "{}: a ROS 2 bag, its odometry replayed as recorded (no reference poses); \
+                 {mount}{skipped}",
+                file.display()
             ),
             lidar_mount: bag.lidar_mount,
         }
