@@ -118,6 +118,14 @@ async fn the_page_and_every_module_it_imports_load_without_a_token() {
     assert_eq!(status, StatusCode::UNAUTHORIZED);
 }
 
+/// `GET uri` with the token, from the dashboard's page.
+fn authed_from_dashboard(uri: &str) -> Request<Body> {
+    authed(Method::GET, uri)
+        .header(header::ORIGIN, DASHBOARD)
+        .body(Body::empty())
+        .unwrap()
+}
+
 fn preflight(origin: &str) -> Request<Body> {
     Request::builder()
         .method(Method::OPTIONS)
@@ -137,14 +145,7 @@ async fn cors_is_off_by_default() {
     let app = app(&[]);
     let (_, headers, _) = send(&app, preflight(DASHBOARD)).await;
     assert!(headers.get(header::ACCESS_CONTROL_ALLOW_ORIGIN).is_none());
-    let (status, headers, _) = send(
-        &app,
-        authed(Method::GET, "/v1/sketches")
-            .header(header::ORIGIN, DASHBOARD)
-            .body(Body::empty())
-            .unwrap(),
-    )
-    .await;
+    let (status, headers, _) = send(&app, authed_from_dashboard("/v1/sketches")).await;
     assert_eq!(status, StatusCode::OK);
     assert!(headers.get(header::ACCESS_CONTROL_ALLOW_ORIGIN).is_none());
 }
@@ -168,14 +169,7 @@ async fn a_listed_origin_passes_preflight_without_the_token_and_reads_the_map_he
     let (_, headers, _) = send(&app, preflight("https://evil.example.com")).await;
     assert!(headers.get(header::ACCESS_CONTROL_ALLOW_ORIGIN).is_none());
     // The real request: granted, and the map's tag and frame are readable by the page.
-    let (status, headers, _) = send(
-        &app,
-        authed(Method::GET, "/v1/sketches")
-            .header(header::ORIGIN, DASHBOARD)
-            .body(Body::empty())
-            .unwrap(),
-    )
-    .await;
+    let (status, headers, _) = send(&app, authed_from_dashboard("/v1/sketches")).await;
     assert_eq!(status, StatusCode::OK);
     assert_eq!(headers[header::ACCESS_CONTROL_ALLOW_ORIGIN], DASHBOARD);
     let exposed = headers[header::ACCESS_CONTROL_EXPOSE_HEADERS]
