@@ -284,11 +284,17 @@ async fn content_length_guard(limit: usize, req: Request, next: Next) -> Respons
     if let Some(n) = declared
         && n > limit as u64
     {
-        return ApiError::too_large(
+        let mut response = ApiError::too_large(
             "payload_too_large",
             format!("the request body has {n} bytes; the limit is {limit}"),
         )
         .into_response();
+        // The body is left unread, so the connection cannot carry another request: say so,
+        // or a client may send its next request on it as the server closes it.
+        response
+            .headers_mut()
+            .insert(header::CONNECTION, HeaderValue::from_static("close"));
+        return response;
     }
     next.run(req).await
 }

@@ -862,3 +862,18 @@ async fn internal_errors_are_not_leaked() {
     assert_eq!(body.error.code, "internal");
     assert!(!body.error.message.contains("/secret"));
 }
+
+#[tokio::test]
+async fn a_body_refused_unread_closes_its_connection() {
+    // Answered from the Content-Length alone, the body still on the wire: the client must
+    // not send another request on this connection.
+    let h = default_harness();
+    let req = Request::post("/v1/sketches")
+        .header(header::CONTENT_TYPE, "image/png")
+        .header(header::CONTENT_LENGTH, "1000000")
+        .body(Body::empty())
+        .unwrap();
+    let response = h.app.clone().oneshot(req).await.unwrap();
+    assert_eq!(response.status(), StatusCode::PAYLOAD_TOO_LARGE);
+    assert_eq!(response.headers()[header::CONNECTION], "close");
+}
