@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use sketchslam_engine::mapper::MapperConfig;
 
 use crate::http_server::HttpLimits;
+use crate::vda5050::Vda5050Config;
 
 /// Everything [`super::run`] needs.
 #[derive(Debug, Clone)]
@@ -35,6 +36,9 @@ pub struct ServiceConfig {
     /// Origins whose browser pages may call the API (CORS); `*` for any; empty: none but
     /// the service's own page.
     pub cors_origins: Vec<axum::http::HeaderValue>,
+    /// VDA 5050 over MQTT: each session's `visualization` and `connection` for its robot;
+    /// `None`: off.
+    pub vda5050: Option<Vda5050Config>,
 }
 
 impl Default for ServiceConfig {
@@ -51,6 +55,7 @@ impl Default for ServiceConfig {
             max_concurrent_uploads: sketchslam_api::DEFAULT_MAX_CONCURRENT_UPLOADS,
             idle_stop: Some(std::time::Duration::from_secs(60)),
             cors_origins: Vec::new(),
+            vda5050: None,
         }
     }
 }

@@ -7,6 +7,10 @@
 //!   intake thread (iceoryx2 RobotSubscriber) ──bounded channel──▶ mapper thread (Mapper)
 //! ```
 //!
+//! With `--mqtt-url`, the registry also hands each session it starts to a VDA 5050 bridge
+//! (`vda5050`), which publishes the robot's position to an MQTT broker from the session's
+//! events.
+//!
 //! iceoryx2 handles never leave their intake thread; the async side only sees the registry,
 //! whose calls the router makes on tokio's blocking pool, and broadcast channels of events.
 //! [`run`] serves until its `shutdown` future completes, then stops every session (storing
@@ -22,6 +26,7 @@ pub mod registration_codec;
 pub mod registry;
 pub mod session;
 pub mod storage;
+pub mod vda5050;
 pub mod warp_cache;
 
 use std::future::Future;
@@ -94,6 +99,21 @@ pub async fn serve(
         .await
         .map_err(|e| RuntimeError::Task(e.to_string()))??;
     let registry = Arc::new(registry);
+    let vda5050 = match config.vda5050.clone() {
+        Some(vda) => {
+            tracing::info!(
+                broker = %format!("{}:{}", vda.broker.host, vda.broker.port),
+                rate_hz = vda.rate_hz,
+                "VDA 5050 over MQTT on"
+            );
+            let (observer, bridges) = vda5050::Vda5050::new(vda, config.mapper.grid.resolution_m)
+                .map_err(RuntimeError::Config)?
+                .spawn();
+            registry.observe_sessions(observer);
+            Some(bridges)
+        }
+        None => None,
+    };
     let app = router(
         registry.clone(),
         RouterOptions {
@@ -151,6 +171,16 @@ pub async fn serve(
     tokio::task::spawn_blocking(move || registry.shutdown())
         .await
         .map_err(|e| RuntimeError::Task(e.to_string()))?;
+    if let Some(bridges) = vda5050 {
+        // Each bridge says OFFLINE for its stopped session, or gives up on a broker that
+        // is away after a few seconds.
+        if tokio::time::timeout(std::time::Duration::from_secs(10), bridges)
+            .await
+            .is_err()
+        {
+            tracing::warn!("VDA 5050 bridges still running at exit");
+        }
+    }
     tracing::info!("slam-service stopped");
     Ok(())
 }

@@ -27,10 +27,12 @@ use super::metrics::{Histogram, render_metrics};
 use super::registration_codec::{not_registered, registration_from_info, transform_response};
 use super::session::{Session, lock, now_unix_ms};
 use super::storage::{SessionMeta, SketchMeta, Storage};
+use super::vda5050::StartedSession;
 use sketchslam_engine::EngineError;
 use sketchslam_engine::mapper::{Mapper, SketchPrior};
 use sketchslam_engine::sketch::overlay::{encode_png, render_overlay};
 use sketchslam_engine::sketch::{Sketch, SketchPose};
+use tokio::sync::mpsc;
 
 /// A stored sketch, processed.
 struct StoredSketch {
@@ -68,6 +70,8 @@ pub struct Registry {
     sketches: Mutex<BTreeMap<String, Arc<StoredSketch>>>,
     sessions: Mutex<Sessions>,
     closing: AtomicBool,
+    /// Told of every session started (the VDA 5050 bridges); dropped at shutdown.
+    observer: Mutex<Option<mpsc::UnboundedSender<StartedSession>>>,
 }
 
 impl Registry {
@@ -122,6 +126,7 @@ impl Registry {
             sketches: Mutex::new(sketches),
             sessions: Mutex::new(sessions),
             closing: AtomicBool::new(false),
+            observer: Mutex::new(None),
         })
     }
 
@@ -209,7 +214,14 @@ impl Registry {
             .collect()
     }
 
-    /// Stops every running session (storing its map) and refuses new ones.
+    /// Sends every session started from now on, with its events from its start, to
+    /// `observer` (until [`Registry::shutdown`]).
+    pub fn observe_sessions(&self, observer: mpsc::UnboundedSender<StartedSession>) {
+        *lock(&self.observer) = Some(observer);
+    }
+
+    /// Stops every running session (storing its map) and refuses new ones; the observer
+    /// is dropped once they are stopped, so it learns that no session will follow.
     pub fn shutdown(&self) {
         self.closing.store(true, Ordering::SeqCst);
         let ids: Vec<String> = lock(&self.sessions)
@@ -227,6 +239,7 @@ impl Registry {
                 });
             }
         });
+        lock(&self.observer).take();
         tracing::info!(stopped = ids.len(), "registry shut down");
     }
 
@@ -415,6 +428,9 @@ impl Backend for Registry {
         sessions.starting.remove(&request.robot_id);
         let session = started?;
         let info = session.info();
+        if let Some(observer) = lock(&self.observer).as_ref() {
+            let _ = observer.send((info.clone(), session.subscribe(None)));
+        }
         sessions.entries.insert(id, Entry::Live(Arc::new(session)));
         Ok(info)
     }

@@ -7,6 +7,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Parser;
+use sketchslam_slam::vda5050::{BrokerAddress, TopicNames, Vda5050Config};
 use sketchslam_slam::{HttpLimits, ServiceConfig, run};
 
 /// Builds metric maps from robots' LiDAR and odometry, with hand-drawn sketches as prior.
@@ -58,6 +59,27 @@ struct Args {
         value_delimiter = ','
     )]
     cors_origins: Vec<String>,
+    /// MQTT broker for VDA 5050 (`mqtt://[user:password@]host[:port]`): each session then
+    /// publishes its robot's `visualization` and `connection` there. Off by default.
+    #[arg(long, env = "SKETCHSLAM_MQTT_URL")]
+    mqtt_url: Option<String>,
+    /// VDA 5050 topic level 1, the interface name.
+    #[arg(long, env = "SKETCHSLAM_VDA5050_INTERFACE", default_value = "uagv")]
+    vda5050_interface: String,
+    /// VDA 5050 topic level 2, the major version.
+    #[arg(long, env = "SKETCHSLAM_VDA5050_VERSION", default_value = "v2")]
+    vda5050_version: String,
+    /// VDA 5050 topic level 3 and header field, the manufacturer (level 4, the serial
+    /// number, is the session's robot id).
+    #[arg(
+        long,
+        env = "SKETCHSLAM_VDA5050_MANUFACTURER",
+        default_value = "sketchslam"
+    )]
+    vda5050_manufacturer: String,
+    /// VDA 5050 `visualization` messages per second per robot at most (0 < rate <= 10).
+    #[arg(long, env = "SKETCHSLAM_VDA5050_RATE_HZ", default_value_t = 5.0)]
+    vda5050_rate_hz: f64,
     /// Log as JSON lines instead of text.
     #[arg(long, env = "SKETCHSLAM_LOG_JSON")]
     log_json: bool,
@@ -138,6 +160,24 @@ fn main() -> anyhow::Result<()> {
         .filter(|o| !o.is_empty())
         .map(cors_origin)
         .collect::<anyhow::Result<Vec<_>>>()?;
+    let vda5050 = match args.mqtt_url.as_deref().filter(|u| !u.is_empty()) {
+        None => None,
+        Some(url) => {
+            let config = Vda5050Config {
+                broker: BrokerAddress::parse(url)
+                    .map_err(|e| anyhow::anyhow!("--mqtt-url: {e}"))?,
+                topics: TopicNames {
+                    interface: args.vda5050_interface,
+                    major_version: args.vda5050_version,
+                    manufacturer: args.vda5050_manufacturer,
+                },
+                rate_hz: args.vda5050_rate_hz,
+                drift_per_m: Vda5050Config::DEFAULT_DRIFT_PER_M,
+            };
+            config.validate().map_err(|e| anyhow::anyhow!(e))?;
+            Some(config)
+        }
+    };
     let config = ServiceConfig {
         listen: args.listen,
         data_dir: args.data_dir,
@@ -153,6 +193,7 @@ fn main() -> anyhow::Result<()> {
             Some(seconds("idle-stop-s", args.idle_stop_s)?)
         },
         cors_origins,
+        vda5050,
         ..ServiceConfig::default()
     };
     let runtime = tokio::runtime::Runtime::new().context("starting the tokio runtime")?;

@@ -1,0 +1,360 @@
+//! VDA 5050 over MQTT (issue 18, part 4): the real `slam-service` with `--mqtt-url`
+//! publishes each session's `visualization` and `connection` to a real MQTT broker
+//! (`mqtt-broker`, rumqttd in a process of its own) while the simulator feeds it.
+//!
+//! Every message a subscriber receives is validated against the official VDA 5050 2.1
+//! JSON schemas (`tests/data/vda5050/`, from VDA5050/VDA5050, MIT), formats included; the
+//! `headerId` of each topic increases; `visualization` stays under its configured rate.
+//! The broker is killed mid-session: HTTP and mapping go on, and when it is back the
+//! service reconnects (ONLINE again) and visualization resumes. A stopped session says
+//! OFFLINE; a killed service's session says CONNECTIONBROKEN, through its last will.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail, ensure};
+use common::{TempDir, dump_log, start_service, wait_session};
+use rumqttc::{AsyncClient, Event, MqttOptions, Packet, QoS};
+use serde_json::Value;
+use sketchslam_api::MappingMethod;
+use sketchslam_tests::processes::{
+    ChildGuard, binary, bundled_scenario, free_port, unique_prefix, workspace_root,
+};
+use sketchslam_tests::session_request::baseline_session;
+
+/// The rate the service is asked for, Hz.
+const RATE_HZ: f64 = 5.0;
+
+/// One message as the subscriber got it.
+#[derive(Debug, Clone)]
+struct Received {
+    topic: String,
+    payload: Vec<u8>,
+    /// Set by the broker only on a retained message replayed at subscription.
+    retain: bool,
+    at: Instant,
+}
+
+type Inbox = Arc<Mutex<Vec<Received>>>;
+
+fn start_broker(port: u16, log: &Path) -> Result<ChildGuard> {
+    let exe = binary("sketchslam-tests", "mqtt-broker")?;
+    let log = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(log)?;
+    let mut cmd = Command::new(exe);
+    cmd.args(["--port", &port.to_string()])
+        .stdout(Stdio::null())
+        .stderr(log);
+    let broker = ChildGuard::spawn("mqtt-broker", &mut cmd)?;
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+        ensure!(
+            Instant::now() < deadline,
+            "the broker did not listen on {port}"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    Ok(broker)
+}
+
+/// Subscribes to every robot's VDA 5050 topics (again at each reconnection: a broker
+/// that restarted has forgotten the subscription) and keeps what arrives.
+fn subscribe(port: u16) -> Inbox {
+    let inbox: Inbox = Arc::default();
+    let kept = inbox.clone();
+    let mut options = MqttOptions::new(unique_prefix("vda-listener"), "127.0.0.1", port);
+    options.set_keep_alive(Duration::from_secs(5));
+    let (client, mut events) = AsyncClient::new(options, 64);
+    tokio::spawn(async move {
+        loop {
+            match events.poll().await {
+                Ok(Event::Incoming(Packet::ConnAck(_))) => {
+                    let _ = client.try_subscribe("uagv/v2/sketchslam/+/+", QoS::AtLeastOnce);
+                }
+                Ok(Event::Incoming(Packet::Publish(p))) => {
+                    kept.lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .push(Received {
+                            topic: p.topic.clone(),
+                            payload: p.payload.to_vec(),
+                            retain: p.retain,
+                            at: Instant::now(),
+                        });
+                }
+                Ok(_) => {}
+                Err(_) => tokio::time::sleep(Duration::from_millis(200)).await,
+            }
+        }
+    });
+    inbox
+}
+
+fn snapshot(inbox: &Inbox) -> Vec<Received> {
+    inbox.lock().unwrap_or_else(|e| e.into_inner()).clone()
+}
+
+/// Waits until `pred` holds for the messages received so far.
+async fn wait_for(
+    inbox: &Inbox,
+    timeout: Duration,
+    what: &str,
+    pred: impl Fn(&[Received]) -> bool,
+) -> Result<()> {
+    let deadline = Instant::now() + timeout;
+    loop {
+        if pred(&snapshot(inbox)) {
+            return Ok(());
+        }
+        if Instant::now() > deadline {
+            let got: Vec<String> = snapshot(inbox)
+                .iter()
+                .rev()
+                .take(5)
+                .map(|r| format!("{} {}", r.topic, String::from_utf8_lossy(&r.payload)))
+                .collect();
+            bail!("timed out after {timeout:?} waiting for {what}; last messages: {got:#?}");
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
+fn json(r: &Received) -> Value {
+    serde_json::from_slice(&r.payload).unwrap_or(Value::Null)
+}
+
+fn is_state(r: &Received, robot: &str, state: &str) -> bool {
+    r.topic == format!("uagv/v2/sketchslam/{robot}/connection")
+        && json(r)["connectionState"] == state
+}
+
+fn visualizations<'a>(got: &'a [Received], robot: &str) -> Vec<&'a Received> {
+    let topic = format!("uagv/v2/sketchslam/{robot}/visualization");
+    got.iter().filter(|r| r.topic == topic).collect()
+}
+
+fn schema(name: &str) -> Result<jsonschema::Validator> {
+    let path = workspace_root().join(format!("tests/data/vda5050/{name}.schema"));
+    let schema: Value = serde_json::from_slice(&std::fs::read(&path)?)
+        .with_context(|| format!("{}", path.display()))?;
+    jsonschema::draft202012::options()
+        .should_validate_formats(true)
+        .build(&schema)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+}
+
+/// Every message against its schema and the header rules; returns per-topic counts.
+fn check_all(got: &[Received], sessions: &BTreeMap<&str, String>) -> Result<()> {
+    let visualization = schema("visualization")?;
+    let connection = schema("connection")?;
+    let mut last_id: BTreeMap<&str, u64> = BTreeMap::new();
+    for r in got {
+        let message: Value =
+            serde_json::from_slice(&r.payload).with_context(|| format!("{}: not JSON", r.topic))?;
+        let (validator, robot) = match r.topic.rsplit_once('/') {
+            Some((rest, "visualization")) => (&visualization, rest.rsplit('/').next()),
+            Some((rest, "connection")) => (&connection, rest.rsplit('/').next()),
+            _ => bail!("unexpected topic {}", r.topic),
+        };
+        let robot = robot.unwrap_or_default();
+        if let Err(e) = validator.validate(&message) {
+            bail!("{} breaks the VDA 5050 2.1 schema: {e}\n{message}", r.topic);
+        }
+        ensure!(message["version"] == "2.1.0", "{message}");
+        ensure!(message["manufacturer"] == "sketchslam", "{message}");
+        ensure!(message["serialNumber"] == robot, "{message}");
+        let stamp = message["timestamp"].as_str().unwrap_or_default();
+        ensure!(
+            stamp.ends_with('Z') && humantime::parse_rfc3339(stamp).is_ok(),
+            "timestamp {stamp:?} is not ISO 8601 UTC"
+        );
+        if r.topic.ends_with("/visualization") {
+            let position = &message["agvPosition"];
+            ensure!(position["positionInitialized"] == true, "{message}");
+            ensure!(
+                position["mapId"].as_str() == sessions.get(robot).map(String::as_str),
+                "mapId is not the session: {message}"
+            );
+            ensure!(
+                position["deviationRange"].as_f64().is_some_and(|d| d > 0.0),
+                "{message}"
+            );
+            let theta = position["theta"].as_f64().unwrap_or(f64::NAN);
+            ensure!(theta.abs() <= std::f64::consts::PI, "{message}");
+        }
+        // A retained message replayed at subscription repeats an older one.
+        if r.retain {
+            continue;
+        }
+        let id = message["headerId"].as_u64().context("headerId")?;
+        if let Some(previous) = last_id.insert(r.topic.as_str(), id) {
+            ensure!(id > previous, "{}: headerId {id} after {previous}", r.topic);
+        }
+    }
+    Ok(())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn vda5050_messages_follow_the_schemas_and_outlive_a_broker_restart() -> Result<()> {
+    let dir = TempDir::new("vda5050")?;
+    let data = dir.0.join("data");
+    let result = run(&dir.0, &data).await;
+    if result.is_err() {
+        dump_log(&data.with_extension("log"), 60);
+        dump_log(&dir.0.join("broker.log"), 20);
+    }
+    result
+}
+
+async fn run(dir: &Path, data: &Path) -> Result<()> {
+    let port = free_port()?;
+    let broker_log = dir.join("broker.log");
+    let mut broker = start_broker(port, &broker_log)?;
+    let inbox = subscribe(port);
+    let prefix = unique_prefix("vda5050");
+    let url = format!("mqtt://127.0.0.1:{port}");
+    let rate = RATE_HZ.to_string();
+    let mut service = start_service(
+        data,
+        &prefix,
+        &["--mqtt-url", &url, "--vda5050-rate-hz", &rate],
+        &[],
+    )
+    .await?;
+    let client = service.client.clone();
+
+    // A graph session for robot vda-1, fed by the simulator in real time.
+    let robot = "vda-1";
+    let session = client
+        .create_session(&baseline_session(robot, MappingMethod::Graph, None))
+        .await?;
+    let mut sessions = BTreeMap::new();
+    sessions.insert(robot, session.id.clone());
+    let exe = binary("sketchslam-simulator", "simulator")?;
+    let mut sim_cmd = Command::new(exe);
+    sim_cmd
+        .arg("run")
+        .arg(bundled_scenario("paper-env1"))
+        .args(["--robot", robot, "--rate", "1.0", "--quiet"])
+        .args(["--ipc-prefix", &prefix])
+        .args(["--max-scans", "1200"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null());
+    let _sim = ChildGuard::spawn("simulator", &mut sim_cmd)?;
+
+    wait_for(&inbox, Duration::from_secs(30), "ONLINE of vda-1", |got| {
+        got.iter().any(|r| is_state(r, robot, "ONLINE"))
+    })
+    .await?;
+    wait_for(
+        &inbox,
+        Duration::from_secs(60),
+        "10 visualizations",
+        |got| visualizations(got, robot).len() >= 10,
+    )
+    .await?;
+
+    // The broker goes away: HTTP answers and the session goes on mapping.
+    broker.kill();
+    let before = client.get_session(&session.id).await?.scans_processed;
+    let away_from = snapshot(&inbox).len();
+    wait_session(
+        &client,
+        &session.id,
+        Duration::from_secs(30),
+        "mapping while the broker is away",
+        |i| i.scans_processed >= before + 20,
+    )
+    .await?;
+    ensure!(
+        snapshot(&inbox).len() == away_from,
+        "messages arrived while the broker was down"
+    );
+
+    // It comes back on the same port: the service reconnects by itself.
+    let mut broker = start_broker(port, &broker_log)?;
+    wait_for(
+        &inbox,
+        Duration::from_secs(30),
+        "ONLINE after the restart",
+        |got| {
+            got[away_from..]
+                .iter()
+                .any(|r| is_state(r, robot, "ONLINE"))
+        },
+    )
+    .await?;
+    wait_for(
+        &inbox,
+        Duration::from_secs(30),
+        "visualization after the restart",
+        |got| visualizations(&got[away_from..], robot).len() >= 5,
+    )
+    .await?;
+
+    // An orderly stop says OFFLINE.
+    client.stop_session(&session.id).await?;
+    wait_for(&inbox, Duration::from_secs(30), "OFFLINE of vda-1", |got| {
+        got.iter().any(|r| is_state(r, robot, "OFFLINE"))
+    })
+    .await?;
+
+    // A session whose service is killed says CONNECTIONBROKEN: the broker sends its will.
+    let robot2 = "vda-2";
+    let session2 = client
+        .create_session(&baseline_session(robot2, MappingMethod::Graph, None))
+        .await?;
+    sessions.insert(robot2, session2.id.clone());
+    wait_for(&inbox, Duration::from_secs(30), "ONLINE of vda-2", |got| {
+        got.iter().any(|r| is_state(r, robot2, "ONLINE"))
+    })
+    .await?;
+    service.guard.kill();
+    wait_for(
+        &inbox,
+        Duration::from_secs(30),
+        "CONNECTIONBROKEN of vda-2",
+        |got| got.iter().any(|r| is_state(r, robot2, "CONNECTIONBROKEN")),
+    )
+    .await?;
+    broker.kill();
+
+    let got = snapshot(&inbox);
+    check_all(&got, &sessions)?;
+
+    // The rate: no faster than asked, over the longest stretch without a gap.
+    let vis = visualizations(&got, robot);
+    let gaps: Vec<f64> = vis
+        .windows(2)
+        .map(|w| (w[1].at - w[0].at).as_secs_f64())
+        .collect();
+    let span: f64 = gaps.iter().filter(|g| **g < 1.0).sum();
+    let steady = gaps.iter().filter(|g| **g < 1.0).count() as f64;
+    let sizes: Vec<usize> = vis.iter().map(|r| r.payload.len()).collect();
+    let mean_size = sizes.iter().sum::<usize>() as f64 / sizes.len().max(1) as f64;
+    println!(
+        "visualization: {} messages, {:.2} Hz over {span:.1} s of steady flow (asked {RATE_HZ}), \
+         {mean_size:.0} bytes each (max {}); connection: {} messages",
+        vis.len(),
+        steady / span.max(1e-9),
+        sizes.iter().max().unwrap_or(&0),
+        got.iter()
+            .filter(|r| r.topic.ends_with("/connection"))
+            .count()
+    );
+    ensure!(
+        steady <= span * RATE_HZ * 1.25 + 2.0,
+        "{steady} visualizations in {span:.1} s: faster than {RATE_HZ} Hz"
+    );
+    ensure!(
+        steady >= span * RATE_HZ * 0.4,
+        "{steady} visualizations in {span:.1} s: far slower than {RATE_HZ} Hz"
+    );
+    Ok(())
+}
