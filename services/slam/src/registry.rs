@@ -429,7 +429,8 @@ impl Backend for Registry {
         let session = started?;
         let info = session.info();
         if let Some(observer) = lock(&self.observer).as_ref() {
-            let _ = observer.send((info.clone(), session.subscribe(None)));
+            // From its first event (kept since the start), not from now.
+            let _ = observer.send((info.clone(), session.subscribe(Some(0))));
         }
         sessions.entries.insert(id, Entry::Live(Arc::new(session)));
         Ok(info)

@@ -13,17 +13,18 @@
 //! visualization, never a pose of the map), and a broker that is away only delays MQTT.
 
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, SystemTime};
 
-use rumqttc::{AsyncClient, Event, EventLoop, LastWill, MqttOptions, Outgoing, Packet, QoS};
-use sketchslam_api::{EventSubscription, PoseResponse, SessionEvent, SessionInfo};
+use rumqttc::{
+    AsyncClient, ConnectionError, Event, EventLoop, LastWill, MqttOptions, Outgoing, Packet, QoS,
+};
+use sketchslam_api::{EventSubscription, SessionInfo};
 use tokio::sync::{broadcast, watch};
 
 use super::Vda5050Config;
-use super::messages::{
-    Connection, ConnectionState, Header, Velocity, Visualization, agv_position, deviation_range_m,
-    velocity_between,
-};
+use super::messages::{Connection, ConnectionState, Header, Visualization};
+use super::position_tracker::PositionTracker;
 
 /// Requests queued toward the broker at most; more visualizations are dropped.
 const QUEUE: usize = 64;
@@ -32,11 +33,70 @@ const RETRY: Duration = Duration::from_secs(1);
 /// How long a stopping session waits for its OFFLINE and goodbye to leave.
 const GOODBYE: Duration = Duration::from_secs(2);
 
-/// The per-topic counters of one robot (`headerId` counts the messages sent on a topic).
-#[derive(Debug, Default)]
-struct HeaderIds {
-    connection: u64,
-    visualization: u64,
+/// Who the messages are from: the header fields every message of one robot shares.
+#[derive(Debug)]
+struct Sender {
+    manufacturer: String,
+    serial: String,
+}
+
+impl Sender {
+    fn header(&self, header_id: u64) -> Header {
+        Header {
+            header_id,
+            timestamp: super::messages::timestamp(SystemTime::now()),
+            version: super::messages::PROTOCOL_VERSION,
+            manufacturer: self.manufacturer.clone(),
+            serial_number: self.serial.clone(),
+        }
+    }
+}
+
+/// The robot's `connection` topic and its `headerId` counter, shared by the session task
+/// (OFFLINE) and the event loop (ONLINE at each connection, the last will before each
+/// attempt).
+///
+/// Ids: before an attempt the will is written with the id after the next one; the
+/// connection's ONLINE takes the next one, so the will (sent only if the connection then
+/// breaks) or the OFFLINE follows it. A connection that was up and broke may have had its
+/// will sent, so its id is used up before the next attempt.
+#[derive(Debug)]
+struct ConnectionTopic {
+    topic: String,
+    from: Arc<Sender>,
+    next_id: AtomicU64,
+    stopping: AtomicBool,
+}
+
+impl ConnectionTopic {
+    /// A message with the next id.
+    fn message(&self, state: ConnectionState) -> Vec<u8> {
+        let id = self.next_id.fetch_add(1, Ordering::SeqCst);
+        json(&Connection {
+            header: self.from.header(id),
+            connection_state: state,
+        })
+    }
+
+    /// The last will for the next attempt: CONNECTIONBROKEN, stamped now.
+    fn will(&self) -> LastWill {
+        let id = self.next_id.load(Ordering::SeqCst) + 1;
+        let payload = json(&Connection {
+            header: self.from.header(id),
+            connection_state: ConnectionState::ConnectionBroken,
+        });
+        LastWill::new(&self.topic, payload, QoS::AtLeastOnce, true)
+    }
+
+    fn send(&self, client: &AsyncClient, state: ConnectionState) {
+        send(
+            client,
+            &self.topic,
+            QoS::AtLeastOnce,
+            true,
+            self.message(state),
+        );
+    }
 }
 
 /// Serves one session until its events end (it stopped), then says OFFLINE.
@@ -46,21 +106,16 @@ pub async fn run_session(
     info: SessionInfo,
     events: EventSubscription,
 ) {
-    let serial = info.robot_id.clone();
-    let connection_topic = config.topics.topic(&serial, "connection");
-    let visualization_topic = config.topics.topic(&serial, "visualization");
-    let header = |id: u64| Header {
-        header_id: id,
-        timestamp: super::messages::timestamp(SystemTime::now()),
-        version: super::messages::PROTOCOL_VERSION,
+    let from = Arc::new(Sender {
         manufacturer: config.topics.manufacturer.clone(),
-        serial_number: serial.clone(),
-    };
-    let mut ids = HeaderIds::default();
-    // The will carries the id after the first ONLINE: MQTT fixes it at connect time.
-    let will = json(&Connection {
-        header: header(1),
-        connection_state: ConnectionState::ConnectionBroken,
+        serial: info.robot_id.clone(),
+    });
+    let visualization_topic = config.topics.topic(&info.robot_id, "visualization");
+    let connection = Arc::new(ConnectionTopic {
+        topic: config.topics.topic(&info.robot_id, "connection"),
+        from: from.clone(),
+        next_id: AtomicU64::new(0),
+        stopping: AtomicBool::new(false),
     });
     let mut options = MqttOptions::new(
         format!("sketchslam-{}", info.id),
@@ -69,100 +124,60 @@ pub async fn run_session(
     );
     options
         .set_keep_alive(Duration::from_secs(5))
-        .set_last_will(LastWill::new(
-            &connection_topic,
-            will,
-            QoS::AtLeastOnce,
-            true,
-        ));
+        .set_last_will(connection.will());
     if let Some((user, password)) = &config.broker.credentials {
         options.set_credentials(user.clone(), password.clone());
     }
     let (client, event_loop) = AsyncClient::new(options, QUEUE);
-    let (connected_tx, mut connected) = watch::channel(Link::default());
-    let loop_task = tokio::spawn(drive(event_loop, connected_tx, info.id.clone()));
+    let (link_tx, link) = watch::channel(Link::default());
+    let loop_task = tokio::spawn(drive(
+        event_loop,
+        client.clone(),
+        connection.clone(),
+        link_tx,
+        info.id.clone(),
+    ));
 
-    let mut latest: Option<PoseResponse> = None;
-    let mut fresh = false;
-    let mut previous: Option<(f64, (f64, f64, f64))> = None;
-    let mut velocity = Velocity::default();
-    let mut path_since_closure_m = 0.0;
-    let mut closures = info.loop_closures;
+    let mut visualization_id = 0u64;
+    let mut tracker = PositionTracker::new(info.loop_closures);
+    for kept in &events.replay {
+        tracker.on_event(&kept.event);
+    }
     let mut tick = tokio::time::interval(config.period());
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let mut live = events.live;
     loop {
         tokio::select! {
-            changed = connected.changed() => {
-                if changed.is_err() {
-                    break;
-                }
-                if !connected.borrow_and_update().up {
-                    continue;
-                }
-                let online = json(&Connection {
-                    header: header(ids.connection),
-                    connection_state: ConnectionState::Online,
-                });
-                ids.connection += 1;
-                send(&client, &connection_topic, QoS::AtLeastOnce, true, online);
-            }
             event = live.recv() => match event {
-                Ok(event) => match event.event {
-                    SessionEvent::Pose(pose) => {
-                        if let Some(t) = pose.stamp {
-                            let now = (pose.x, pose.y, pose.theta);
-                            if let Some((t0, before)) = previous {
-                                if let Some(v) = velocity_between(before, now, t - t0) {
-                                    velocity = v;
-                                }
-                                let step = (now.0 - before.0).hypot(now.1 - before.1);
-                                if step.is_finite() {
-                                    path_since_closure_m += step;
-                                }
-                            }
-                            previous = Some((t, now));
-                        }
-                        latest = Some(pose);
-                        fresh = true;
-                    }
-                    SessionEvent::Status(status) => {
-                        if status.loop_closures > closures {
-                            closures = status.loop_closures;
-                            path_since_closure_m = 0.0;
-                        }
-                    }
-                },
+                Ok(event) => tracker.on_event(&event.event),
                 Err(broadcast::error::RecvError::Lagged(_)) => {}
                 Err(broadcast::error::RecvError::Closed) => break,
             },
             _ = tick.tick() => {
                 // Not queued while the broker is away: a fleet manager wants the position
                 // now, not a burst of old ones at the reconnection.
-                if !connected.borrow().up {
+                if !link.borrow().up {
                     continue;
                 }
-                let Some(pose) = latest.as_ref().filter(|_| fresh) else { continue };
-                let deviation =
-                    deviation_range_m(resolution_m, config.drift_per_m, path_since_closure_m);
-                let Some(position) = agv_position(pose, deviation) else { continue };
+                let Some((position, velocity)) =
+                    tracker.take_fresh(resolution_m, config.drift_per_m)
+                else {
+                    continue;
+                };
                 let message = json(&Visualization {
-                    header: header(ids.visualization),
+                    header: from.header(visualization_id),
                     agv_position: position,
                     velocity,
                 });
-                ids.visualization += 1;
-                fresh = false;
+                visualization_id += 1;
                 send(&client, &visualization_topic, QoS::AtMostOnce, false, message);
             }
         }
     }
-    let offline = json(&Connection {
-        header: header(ids.connection),
-        connection_state: ConnectionState::Offline,
-    });
-    send(&client, &connection_topic, QoS::AtLeastOnce, true, offline);
-    // An orderly DISCONNECT: the broker then drops the will.
+    // OFFLINE, then an orderly DISCONNECT (the broker then drops the will). Should the
+    // link break before they leave, the event loop says them at the next connection.
+    connection.stopping.store(true, Ordering::SeqCst);
+    connection.send(&client, ConnectionState::Offline);
     let _ = client.try_disconnect();
     let mut loop_task = loop_task;
     if tokio::time::timeout(GOODBYE, &mut loop_task).await.is_err() {
@@ -178,21 +193,42 @@ struct Link {
     up: bool,
 }
 
-/// Polls the MQTT event loop: reports each connection and loss into `link`, retries every
-/// [`RETRY`] while the broker is away, ends after the goodbye leaves.
-async fn drive(mut event_loop: EventLoop, link: watch::Sender<Link>, session: String) {
+/// Polls the MQTT event loop: at each connection says ONLINE (OFFLINE and goodbye once the
+/// session is stopping) and reports the link in `link`; when a connection fails, writes a
+/// fresh will and retries every [`RETRY`]; ends after the goodbye leaves.
+async fn drive(
+    mut event_loop: EventLoop,
+    client: AsyncClient,
+    connection: Arc<ConnectionTopic>,
+    link: watch::Sender<Link>,
+    session: String,
+) {
     let mut away_logged = false;
     loop {
         match event_loop.poll().await {
             Ok(Event::Incoming(Packet::ConnAck(_))) => {
                 tracing::info!(%session, "MQTT connected");
                 away_logged = false;
+                if connection.stopping.load(Ordering::SeqCst) {
+                    connection.send(&client, ConnectionState::Offline);
+                    let _ = client.try_disconnect();
+                } else {
+                    // Queued before any visualization of this connection.
+                    connection.send(&client, ConnectionState::Online);
+                }
                 link.send_replace(Link { up: true });
             }
             Ok(Event::Outgoing(Outgoing::Disconnect)) => break,
             Ok(_) => {}
+            // The client is gone: nothing will ever be sent again.
+            Err(ConnectionError::RequestsDone) => break,
             Err(e) => {
-                link.send_if_modified(|l| std::mem::replace(&mut l.up, false));
+                let was_up = link.send_if_modified(|l| std::mem::replace(&mut l.up, false));
+                if was_up {
+                    // The broker may have sent the will: its id is taken.
+                    connection.next_id.fetch_add(1, Ordering::SeqCst);
+                }
+                event_loop.mqtt_options.set_last_will(connection.will());
                 if !away_logged {
                     tracing::warn!(%session, error = %e, "MQTT broker unreachable; retrying");
                     away_logged = true;

@@ -2,11 +2,12 @@
 //! manager as VDA 5050 2.1 `visualization` and `connection` messages (off unless the
 //! service is given `--mqtt-url`).
 //!
-//! [`messages`] builds the messages (pure); [`bridge`] runs one MQTT connection per
-//! session; [`Vda5050`] takes the sessions the registry starts and gives each its bridge.
+//! [`messages`] builds the messages and [`position_tracker`] follows a session's events
+//! (both pure); [`bridge`] runs one MQTT connection per session; [`Vda5050`] takes the sessions the registry starts and gives each its bridge.
 
 pub mod bridge;
 pub mod messages;
+pub mod position_tracker;
 
 use std::sync::Arc;
 use std::time::Duration;
