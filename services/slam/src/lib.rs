@@ -22,6 +22,7 @@ pub mod http_server;
 pub mod intake;
 pub mod method;
 pub mod metrics;
+pub mod process_stats;
 pub mod registration_codec;
 pub mod registry;
 pub mod session;

@@ -12,6 +12,8 @@ use std::time::Duration;
 use sketchslam_api::router::escape_label;
 use sketchslam_api::{SessionInfo, SessionState};
 
+use crate::process_stats::ProcessStats;
+
 /// Upper bounds of the processing time buckets, seconds.
 pub const BUCKETS_S: [f64; 11] = [
     0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5,
@@ -62,16 +64,20 @@ impl Histogram {
     }
 }
 
-/// The `/metrics` text (Prometheus exposition format): one series per session and family
-/// (`rows` holds each session's status and its odometry readings lost), sessions by
-/// state, stored sketches, and the scan processing histogram. Labels are escaped; their
-/// values come from session ids, robot ids and method names only, so the series are
-/// bounded by the sessions the service holds.
+/// The `/metrics` text (Prometheus exposition format): one series per running session and
+/// family (`running` holds each running session's status and its odometry readings lost),
+/// sessions by state (`states`: every session the service holds), stored sketches, the
+/// scan processing histogram and the process's own use. Labels are escaped; their values
+/// come from session ids, robot ids and method names only, and a stopped session's series
+/// go with it, so the series are bounded by the sessions running at once.
 pub fn render_metrics(
-    rows: &[(SessionInfo, u64)],
+    running: &[(SessionInfo, u64)],
+    states: &[SessionState],
     sketches: usize,
     histogram: &Histogram,
+    process: &ProcessStats,
 ) -> String {
+    let rows = running;
     let mut out = String::new();
     let labels = |i: &SessionInfo| {
         format!(
@@ -143,7 +149,7 @@ pub fn render_metrics(
         (SessionState::Stopped, "stopped"),
         (SessionState::Failed, "failed"),
     ] {
-        let n = rows.iter().filter(|(i, _)| i.state == state).count();
+        let n = states.iter().filter(|s| **s == state).count();
         out.push_str(&format!("sketchslam_sessions{{state=\"{name}\"}} {n}\n"));
     }
     out.push_str(&format!(
@@ -154,6 +160,7 @@ pub fn render_metrics(
          # TYPE sketchslam_scan_processing_seconds histogram\n",
     );
     histogram.render("sketchslam_scan_processing_seconds", &mut out);
+    process.render(&mut out);
     out
 }
 

@@ -24,6 +24,7 @@ use super::codec::{
 use super::config::RegistryConfig;
 use super::method::engine_method;
 use super::metrics::{Histogram, render_metrics};
+use super::process_stats::ProcessStats;
 use super::registration_codec::{not_registered, registration_from_info, transform_response};
 use super::session::{Session, lock, now_unix_ms};
 use super::storage::{SessionMeta, SketchMeta, Storage};
@@ -607,15 +608,25 @@ impl Backend for Registry {
     }
 
     fn metrics_text(&self) -> String {
-        let rows: Vec<(SessionInfo, u64)> = lock(&self.sessions)
-            .entries
-            .values()
-            .map(|e| match e {
-                Entry::Live(s) => (s.info(), s.odometry_lost()),
-                Entry::Stopped(m) => (m.info.clone(), 0),
-            })
-            .collect();
+        let mut running: Vec<(SessionInfo, u64)> = Vec::new();
+        let mut states = Vec::new();
+        for entry in lock(&self.sessions).entries.values() {
+            match entry {
+                Entry::Live(s) => {
+                    let info = s.info();
+                    states.push(info.state);
+                    running.push((info, s.odometry_lost()));
+                }
+                Entry::Stopped(m) => states.push(m.info.state),
+            }
+        }
         let sketches = lock(&self.sketches).len();
-        render_metrics(&rows, sketches, &self.histogram)
+        render_metrics(
+            &running,
+            &states,
+            sketches,
+            &self.histogram,
+            &ProcessStats::read(),
+        )
     }
 }

@@ -408,6 +408,14 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
 
     let stopped = reg.stop_session(&id).unwrap();
     assert_eq!(stopped.state, SessionState::Stopped);
+    // A stopped session's series go (the count by state keeps it); the process is measured.
+    let metrics = reg.metrics_text();
+    assert!(!metrics.contains(&format!("session=\"{id}\"")), "{metrics}");
+    assert!(
+        metrics.contains("sketchslam_sessions{state=\"stopped\"} 1"),
+        "{metrics}"
+    );
+    assert!(metrics.contains("process_open_fds "), "{metrics}");
     assert!(stopped.stopped_unix_ms.is_some());
     // The robot may map again once its session stopped.
     let trajectory = reg.trajectory(&id).unwrap();
