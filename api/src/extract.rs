@@ -102,6 +102,19 @@ impl<S: Send + Sync, T: DeserializeOwned> FromRequestParts<S> for ApiQuery<T> {
     type Rejection = ApiError;
 
     async fn from_request_parts(parts: &mut Parts, state: &S) -> Result<Self, Self::Rejection> {
+        // serde_urlencoded decodes invalid UTF-8 lossily (U+FFFD): a name would be stored
+        // other than it was sent. Refused instead ('&', '=' and '+' are ASCII, so the
+        // whole query can be checked at once).
+        let query = parts.uri.query().unwrap_or_default();
+        if percent_encoding::percent_decode_str(query)
+            .decode_utf8()
+            .is_err()
+        {
+            return Err(ApiError::bad_request(
+                "invalid_query",
+                "the query string is not UTF-8 text once percent-decoded",
+            ));
+        }
         Query::<T>::from_request_parts(parts, state)
             .await
             .map(|Query(q)| ApiQuery(q))

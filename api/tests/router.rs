@@ -199,6 +199,26 @@ async fn sketch_upload_rejections_change_nothing() {
     post(&h.app, &long_name, "image/png", fake_png(10, 10, 1))
         .await
         .error(StatusCode::UNPROCESSABLE_ENTITY, "invalid_name");
+    // Not UTF-8 once percent-decoded: refused, not stored as U+FFFD.
+    post(
+        &h.app,
+        "/v1/sketches?name=caf%E9",
+        "image/png",
+        fake_png(10, 10, 1),
+    )
+    .await
+    .error(StatusCode::BAD_REQUEST, "invalid_query");
+    // Percent-encoded UTF-8 is kept as sent.
+    let cafe = post(
+        &h.app,
+        "/v1/sketches?name=caf%C3%A9",
+        "image/png",
+        fake_png(400, 400, 3),
+    )
+    .await;
+    assert_eq!(cafe.status, StatusCode::CREATED, "{}", cafe.text());
+    assert_eq!(cafe.json()["name"], "café");
+    h.fake.sketches.lock().unwrap().clear();
     // Declared too large: refused from the header, before reading.
     let mut big = fake_png(10, 10, 1);
     big.resize(10_000, b' ');
