@@ -19,6 +19,7 @@ pub mod event_log;
 pub mod extract;
 pub mod map_image;
 pub mod openapi;
+pub mod openapi_wire;
 pub mod registration;
 mod registration_routes;
 pub mod router;

@@ -5,6 +5,7 @@ use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
 use utoipa::{Modify, OpenApi};
 
 use crate::error::{ErrorBody, ErrorDetail};
+use crate::openapi_wire::WireFixes;
 use crate::registration::{
     DrawingPointIn, DrawingPointOut, MapPointIn, MapPointOut, RegistrationInfo,
     SketchInMapResponse, SketchLineInMap, TransformRequest, TransformResponse, WarpInfo,
@@ -64,7 +65,7 @@ use crate::{registration_routes, router};
         SketchLineInMap, TransformRequest, TransformResponse, DrawingPointIn, DrawingPointOut,
         MapPointIn, MapPointOut,
     )),
-    modifiers(&BearerAuth),
+    modifiers(&BearerAuth, &WireFixes),
     security(("bearer" = [])),
     tags(
         (name = "sketches", description = "Hand-drawn maps"),
