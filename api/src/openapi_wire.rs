@@ -7,8 +7,8 @@
 //! - binary bodies (`image/*`, PGM) as `string`/`binary` rather than arrays of integers,
 //!   and the upload's `image/jpeg` beside `image/png`;
 //! - `413` on every operation with a request body;
-//! - the event stream as text (`event:`, `id:`, `data:` lines), not the JSON wrapper the
-//!   Rust type serializes to.
+//! - the event stream as its events (`event`, `id`, `data`), not the JSON wrapper the Rust
+//!   type serializes to, and `map.yaml` as the object a YAML reader gets.
 
 use utoipa::Modify;
 use utoipa::openapi::path::Operation;
@@ -76,6 +76,8 @@ fn fix_operation(op: &mut Operation, public: bool) {
                 content.schema = Some(binary());
             } else if content_type == "text/event-stream" {
                 content.schema = Some(event_stream());
+            } else if content_type == "application/yaml" {
+                content.schema = Some(map_yaml());
             }
         }
     }
@@ -106,16 +108,62 @@ fn binary() -> RefOr<Schema> {
     ))
 }
 
+/// One server-sent event, as SSE clients (and contract testers) parse the stream.
 fn event_stream() -> RefOr<Schema> {
-    RefOr::T(Schema::Object(
+    let text = |description: &'static str| {
         ObjectBuilder::new()
             .schema_type(Type::String)
+            .description(Some(description))
+    };
+    RefOr::T(Schema::Object(
+        ObjectBuilder::new()
+            .schema_type(Type::Object)
             .description(Some(
-                "Server-sent events: each is `event: pose` or `event: status`, `id: N` and \
-                 `data:` the JSON of a PoseResponse or a SessionInfo respectively.",
+                "One server-sent event of the stream: `event: pose` with `data:` the JSON of a \
+                 PoseResponse, or `event: status` with the JSON of a SessionInfo; each with its \
+                 `id:`.",
             ))
+            .property(
+                "event",
+                text("`pose` or `status`").enum_values(Some(["pose", "status"])),
+            )
+            .property("id", text("The event's number, for Last-Event-ID"))
+            .property("data", text("JSON: PoseResponse or SessionInfo"))
+            .required("event")
+            .required("data")
             .build(),
     ))
+}
+
+/// `map.yaml`, the ROS map_server metadata, as a YAML reader sees it.
+fn map_yaml() -> RefOr<Schema> {
+    let number = || ObjectBuilder::new().schema_type(Type::Number);
+    let mut schema = ObjectBuilder::new()
+        .schema_type(Type::Object)
+        .description(Some("ROS map_server metadata of map.pgm"))
+        .property("image", ObjectBuilder::new().schema_type(Type::String))
+        .property("resolution", number())
+        .property(
+            "origin",
+            utoipa::openapi::schema::ArrayBuilder::new()
+                .items(number())
+                .min_items(Some(3))
+                .max_items(Some(3)),
+        )
+        .property("negate", ObjectBuilder::new().schema_type(Type::Integer))
+        .property("occupied_thresh", number())
+        .property("free_thresh", number());
+    for field in [
+        "image",
+        "resolution",
+        "origin",
+        "negate",
+        "occupied_thresh",
+        "free_thresh",
+    ] {
+        schema = schema.required(field);
+    }
+    RefOr::T(Schema::Object(schema.build()))
 }
 
 #[cfg(test)]
@@ -194,7 +242,8 @@ mod tests {
                     );
                 }
                 if content_type == "text/event-stream" {
-                    assert_eq!(content["schema"]["type"], "string", "{method} {path}");
+                    assert_eq!(content["schema"]["type"], "object", "{method} {path}");
+                    assert!(content["schema"]["properties"]["data"].is_object());
                 }
             }
         }

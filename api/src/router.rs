@@ -671,7 +671,7 @@ pub(crate) async fn session_map_yaml(
 #[utoipa::path(get, path = "/v1/sessions/{id}/events", tag = "sessions",
     params(
         ("id" = String, Path, description = "Session id"),
-        ("Last-Event-ID" = Option<u64>, Header, description = "Resume after this event id")),
+        ("Last-Event-ID" = Option<String>, Header, description = "Resume after this event id (a number as sent in `id:`; anything else starts the stream over)")),
     responses(
         (status = 200, description = "text/event-stream of `pose` and `status` events, each with an `id:`", body = SessionEvent, content_type = "text/event-stream"),
         (status = 404, description = "Unknown id", body = ErrorBody)))]
