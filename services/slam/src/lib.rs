@@ -95,26 +95,23 @@ pub async fn serve(
     config: ServiceConfig,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<(), RuntimeError> {
+    // Checked before the data dir is touched: a bad setting changes nothing.
+    let vda5050 = config
+        .vda5050
+        .clone()
+        .map(|vda| vda5050::Vda5050::new(vda, config.mapper.grid.resolution_m))
+        .transpose()
+        .map_err(RuntimeError::Config)?;
     let registry_config = RegistryConfig::from(&config);
     let registry = tokio::task::spawn_blocking(move || Registry::open(registry_config))
         .await
         .map_err(|e| RuntimeError::Task(e.to_string()))??;
     let registry = Arc::new(registry);
-    let vda5050 = match config.vda5050.clone() {
-        Some(vda) => {
-            tracing::info!(
-                broker = %format!("{}:{}", vda.broker.host, vda.broker.port),
-                rate_hz = vda.rate_hz,
-                "VDA 5050 over MQTT on"
-            );
-            let (observer, bridges) = vda5050::Vda5050::new(vda, config.mapper.grid.resolution_m)
-                .map_err(RuntimeError::Config)?
-                .spawn();
-            registry.observe_sessions(observer);
-            Some(bridges)
-        }
-        None => None,
-    };
+    let vda5050 = vda5050.map(|vda| {
+        let (observer, bridges) = vda.spawn();
+        registry.observe_sessions(observer);
+        bridges
+    });
     let app = router(
         registry.clone(),
         RouterOptions {

@@ -162,21 +162,17 @@ fn main() -> anyhow::Result<()> {
         .collect::<anyhow::Result<Vec<_>>>()?;
     let vda5050 = match args.mqtt_url.as_deref().filter(|u| !u.is_empty()) {
         None => None,
-        Some(url) => {
-            let config = Vda5050Config {
-                broker: BrokerAddress::parse(url)
-                    .map_err(|e| anyhow::anyhow!("--mqtt-url: {e}"))?,
-                topics: TopicNames {
-                    interface: args.vda5050_interface,
-                    major_version: args.vda5050_version,
-                    manufacturer: args.vda5050_manufacturer,
-                },
-                rate_hz: args.vda5050_rate_hz,
-                drift_per_m: Vda5050Config::DEFAULT_DRIFT_PER_M,
-            };
-            config.validate().map_err(|e| anyhow::anyhow!(e))?;
-            Some(config)
-        }
+        // Checked (rate, topic levels) where the service starts.
+        Some(url) => Some(Vda5050Config {
+            broker: BrokerAddress::parse(url).map_err(|e| anyhow::anyhow!("--mqtt-url: {e}"))?,
+            topics: TopicNames {
+                interface: args.vda5050_interface,
+                major_version: args.vda5050_version,
+                manufacturer: args.vda5050_manufacturer,
+            },
+            rate_hz: args.vda5050_rate_hz,
+            drift_per_m: Vda5050Config::DEFAULT_DRIFT_PER_M,
+        }),
     };
     let config = ServiceConfig {
         listen: args.listen,

@@ -129,7 +129,7 @@ pub async fn run_session(
         options.set_credentials(user.clone(), password.clone());
     }
     let (client, event_loop) = AsyncClient::new(options, QUEUE);
-    let (link_tx, link) = watch::channel(Link::default());
+    let (link_tx, link) = watch::channel(false);
     let loop_task = tokio::spawn(drive(
         event_loop,
         client.clone(),
@@ -156,7 +156,7 @@ pub async fn run_session(
             _ = tick.tick() => {
                 // Not queued while the broker is away: a fleet manager wants the position
                 // now, not a burst of old ones at the reconnection.
-                if !link.borrow().up {
+                if !*link.borrow() {
                     continue;
                 }
                 let Some((position, velocity)) =
@@ -186,21 +186,14 @@ pub async fn run_session(
     }
 }
 
-/// The MQTT link as the event loop sees it.
-#[derive(Debug, Clone, Copy, Default)]
-struct Link {
-    /// Connected now.
-    up: bool,
-}
-
 /// Polls the MQTT event loop: at each connection says ONLINE (OFFLINE and goodbye once the
-/// session is stopping) and reports the link in `link`; when a connection fails, writes a
+/// session is stopping) and reports in `link` whether it is connected; when a connection fails, writes a
 /// fresh will and retries every [`RETRY`]; ends after the goodbye leaves.
 async fn drive(
     mut event_loop: EventLoop,
     client: AsyncClient,
     connection: Arc<ConnectionTopic>,
-    link: watch::Sender<Link>,
+    link: watch::Sender<bool>,
     session: String,
 ) {
     let mut away_logged = false;
@@ -216,14 +209,14 @@ async fn drive(
                     // Queued before any visualization of this connection.
                     connection.send(&client, ConnectionState::Online);
                 }
-                link.send_replace(Link { up: true });
+                link.send_replace(true);
             }
             Ok(Event::Outgoing(Outgoing::Disconnect)) => break,
             Ok(_) => {}
             // The client is gone: nothing will ever be sent again.
             Err(ConnectionError::RequestsDone) => break,
             Err(e) => {
-                let was_up = link.send_if_modified(|l| std::mem::replace(&mut l.up, false));
+                let was_up = link.send_if_modified(|up| std::mem::replace(up, false));
                 if was_up {
                     // The broker may have sent the will: its id is taken.
                     connection.next_id.fetch_add(1, Ordering::SeqCst);

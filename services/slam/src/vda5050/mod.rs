@@ -129,6 +129,11 @@ impl Vda5050 {
     /// the returned channel. Once the channel closes, the task ends when the last bridge
     /// has said OFFLINE (its sessions stopped) or given up on an absent broker.
     pub fn spawn(self) -> (mpsc::UnboundedSender<StartedSession>, JoinHandle<()>) {
+        tracing::info!(
+            broker = %format!("{}:{}", self.config.broker.host, self.config.broker.port),
+            rate_hz = self.config.rate_hz,
+            "VDA 5050 over MQTT on"
+        );
         let (tx, mut rx) = mpsc::unbounded_channel::<StartedSession>();
         let task = tokio::spawn(async move {
             let mut bridges = JoinSet::new();
