@@ -13,7 +13,7 @@ mod common;
 use std::time::Duration;
 
 use anyhow::{Context, Result, ensure};
-use common::{TempDir, dump_log, start_service, wait_settled};
+use common::{SERVICE_LOG, in_temp_dir, start_service, wait_settled};
 use sketchslam_api::{CreateSessionRequest, MappingMethod, SessionState};
 use sketchslam_ipc::{Delivery, IpcConfig, RobotPublisher};
 use sketchslam_tests::processes::unique_prefix;
@@ -168,13 +168,10 @@ fn publish(prefix: &str, robot: &str) -> Result<(u64, u64)> {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn bad_ranges_never_reach_the_map() -> Result<()> {
-    let dir = TempDir::new("badscans")?;
-    let data = dir.0.join("data");
-    let result = run(&data).await;
-    if result.is_err() {
-        dump_log(&data.with_extension("log"), 60);
-    }
-    result
+    in_temp_dir("badscans", &[(SERVICE_LOG, 60)], |dir| async move {
+        run(&dir.join("data")).await
+    })
+    .await
 }
 
 async fn run(data: &std::path::Path) -> Result<()> {

@@ -15,7 +15,7 @@ mod common;
 use std::time::Duration;
 
 use anyhow::{Context, Result, ensure};
-use common::{TempDir, dump_log, paper_env1_sketch_a, start_service};
+use common::{SERVICE_LOG, TempDir, in_temp_dir, paper_env1_sketch_a, start_service};
 use reqwest::{Client, Method, RequestBuilder, StatusCode};
 use serde_json::{Value, json};
 use sketchslam_tests::processes::unique_prefix;
@@ -113,13 +113,10 @@ fn png_of(img: &image::GrayImage) -> Result<Vec<u8>> {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn malformed_requests_get_json_4xx_and_change_nothing() -> Result<()> {
-    let dir = TempDir::new("httperr")?;
-    let data = dir.0.join("data");
-    let result = run(&data).await;
-    if result.is_err() {
-        dump_log(&data.with_extension("log"), 40);
-    }
-    result
+    in_temp_dir("httperr", &[(SERVICE_LOG, 40)], |dir| async move {
+        run(&dir.join("data")).await
+    })
+    .await
 }
 
 async fn run(data: &std::path::Path) -> Result<()> {

@@ -16,7 +16,7 @@ mod common;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, ensure};
-use common::{TempDir, dump_log, start_service};
+use common::{SERVICE_LOG, in_temp_dir, start_service};
 use sketchslam_tests::processes::unique_prefix;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
@@ -41,13 +41,10 @@ async fn read_until_closed(stream: &mut TcpStream, limit: Duration) -> Result<(V
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn slow_and_idle_clients_are_cut_off_and_connections_are_capped() -> Result<()> {
-    let dir = TempDir::new("httplimits")?;
-    let data = dir.0.join("data");
-    let result = run(&data).await;
-    if result.is_err() {
-        dump_log(&data.with_extension("log"), 40);
-    }
-    result
+    in_temp_dir("httplimits", &[(SERVICE_LOG, 40)], |dir| async move {
+        run(&dir.join("data")).await
+    })
+    .await
 }
 
 async fn run(data: &std::path::Path) -> Result<()> {

@@ -16,7 +16,7 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use anyhow::{Context, Result, ensure};
-use common::{TempDir, dump_log, first_scans, start_service, wait_session};
+use common::{SERVICE_LOG, first_scans, in_temp_dir, start_service, wait_session};
 use serde_json::Value;
 use sketchslam_api::MappingMethod;
 use sketchslam_simulator::scenario::Scenario;
@@ -106,13 +106,10 @@ fn the_python_structs_are_the_rust_structs() -> Result<()> {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_python_driver_feeds_a_session_that_maps_it() -> Result<()> {
-    let dir = TempDir::new("pydriver")?;
-    let data = dir.0.join("data");
-    let result = run(&dir.0, &data).await;
-    if result.is_err() {
-        dump_log(&data.with_extension("log"), 60);
-    }
-    result
+    in_temp_dir("pydriver", &[(SERVICE_LOG, 60)], |dir| async move {
+        run(&dir, &dir.join("data")).await
+    })
+    .await
 }
 
 async fn run(dir: &std::path::Path, data: &std::path::Path) -> Result<()> {

@@ -13,7 +13,9 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use anyhow::{Context, Result, ensure};
-use common::{TempDir, dump_log, first_scans, paper_env1_mounted, start_service, wait_session};
+use common::{
+    SERVICE_LOG, TempDir, first_scans, in_temp_dir, paper_env1_mounted, start_service, wait_session,
+};
 use sketchslam_api::{LidarMount, MappingMethod, SketchslamClient};
 use sketchslam_simulator::Scenario;
 use sketchslam_simulator::rosbag::{BagTopics, read_bag, write_bag};
@@ -146,13 +148,10 @@ async fn map_with(
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn replaying_the_bag_maps_like_the_scenario_itself() -> Result<()> {
-    let dir = TempDir::new("bagreplay")?;
-    let data = dir.0.join("data");
-    let result = replay(&dir.0, &data).await;
-    if result.is_err() {
-        dump_log(&data.with_extension("log"), 60);
-    }
-    result
+    in_temp_dir("bagreplay", &[(SERVICE_LOG, 60)], |dir| async move {
+        replay(&dir, &dir.join("data")).await
+    })
+    .await
 }
 
 async fn replay(dir: &Path, data: &Path) -> Result<()> {

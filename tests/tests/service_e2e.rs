@@ -12,7 +12,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, ensure};
-use common::{TempDir, dump_log, start_service};
+use common::{SERVICE_LOG, in_temp_dir, start_service};
 use sketchslam_api::{
     DrawingPointIn, MapPointIn, RegistrationInfo, SessionState, TransformRequest, TransformResponse,
 };
@@ -30,16 +30,13 @@ const SCANS: u64 = 600;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn service_maps_paper_env1_with_sketch_a_over_http() -> Result<()> {
-    let dir = TempDir::new("service")?;
-    let result = map_paper_env1(&dir).await;
-    if result.is_err() {
-        // The service's log, to see why (it is removed with the folder).
-        dump_log(&dir.0.join("data.log"), 60);
-    }
-    result
+    in_temp_dir("service", &[(SERVICE_LOG, 60)], |dir| async move {
+        map_paper_env1(&dir).await
+    })
+    .await
 }
 
-async fn map_paper_env1(dir: &TempDir) -> Result<()> {
+async fn map_paper_env1(dir: &std::path::Path) -> Result<()> {
     let scenario_dir = bundled_scenario("paper-env1");
     let scenario = Scenario::load(&scenario_dir)?;
     let sketch_cfg = scenario
@@ -49,7 +46,7 @@ async fn map_paper_env1(dir: &TempDir) -> Result<()> {
         .context("sketch A")?
         .clone();
     let simulator = binary("sketchslam-simulator", "simulator")?;
-    let data_dir = dir.0.join("data");
+    let data_dir = dir.join("data");
     let prefix = unique_prefix("e2e");
     let mut service = start_service(&data_dir, &prefix, &[], &[]).await?;
     let client = service.client.clone();
@@ -69,7 +66,7 @@ async fn map_paper_env1(dir: &TempDir) -> Result<()> {
     let mut events = client.events(&session.id).await?;
 
     // The simulator starts after the session and sends lock-step: nothing is lost.
-    let truth_csv = dir.0.join("truth.csv");
+    let truth_csv = dir.join("truth.csv");
     let mut sim = ChildGuard::spawn(
         "simulator",
         Command::new(simulator)
@@ -143,7 +140,7 @@ async fn map_paper_env1(dir: &TempDir) -> Result<()> {
     let to_map = client.transform(&session.id, &pixels).await?;
     ensure!(to_map.to_map.len() == live_to_map.to_map.len());
     // The map and trajectory come back over HTTP; score them against the truth.
-    let out = dir.0.join("run");
+    let out = dir.join("run");
     std::fs::create_dir_all(&out)?;
     std::fs::write(out.join("map.pgm"), client.map_pgm(&session.id).await?)?;
     std::fs::write(out.join("map.yaml"), client.map_yaml(&session.id).await?)?;

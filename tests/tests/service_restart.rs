@@ -16,7 +16,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, ensure};
 use common::{
-    TempDir, dump_log, paper_env1_sketch_a, run_simulator_lockstep, start_service,
+    SERVICE_LOG, in_temp_dir, paper_env1_sketch_a, run_simulator_lockstep, start_service,
     start_sketch_a_session, wait_session,
 };
 use sketchslam_api::{CreateSessionRequest, MappingMethod, SessionState};
@@ -26,13 +26,10 @@ const SCANS: u64 = 200;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn stored_sketches_and_sessions_survive_sigkill() -> Result<()> {
-    let dir = TempDir::new("svcrestart")?;
-    let data = dir.0.join("data");
-    let result = run(&data).await;
-    if result.is_err() {
-        dump_log(&data.with_extension("log"), 60);
-    }
-    result
+    in_temp_dir("svcrestart", &[(SERVICE_LOG, 60)], |dir| async move {
+        run(&dir.join("data")).await
+    })
+    .await
 }
 
 async fn run(data: &std::path::Path) -> Result<()> {

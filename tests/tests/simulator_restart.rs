@@ -21,8 +21,8 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, ensure};
 use common::{
-    TempDir, dump_log, paper_env1_sketch_a, run_simulator_lockstep, spawn_simulator_lockstep,
-    start_service, start_sketch_a_session, wait_session, wait_settled,
+    SERVICE_LOG, in_temp_dir, paper_env1_sketch_a, run_simulator_lockstep,
+    spawn_simulator_lockstep, start_service, start_sketch_a_session, wait_session, wait_settled,
 };
 use sketchslam_api::SessionState;
 use sketchslam_simulator::world::World;
@@ -54,16 +54,13 @@ async fn trajectory_keeps_every_pose_after_a_simulator_restart() -> Result<()> {
 }
 
 async fn restart_run(strict_trajectory: bool) -> Result<()> {
-    let dir = TempDir::new("simrestart")?;
-    let data = dir.0.join("data");
-    let result = run(&dir, &data, strict_trajectory).await;
-    if result.is_err() {
-        dump_log(&data.with_extension("log"), 60);
-    }
-    result
+    in_temp_dir("simrestart", &[(SERVICE_LOG, 60)], |dir| async move {
+        run(&dir, &dir.join("data"), strict_trajectory).await
+    })
+    .await
 }
 
-async fn run(dir: &TempDir, data: &std::path::Path, strict_trajectory: bool) -> Result<()> {
+async fn run(dir: &std::path::Path, data: &std::path::Path, strict_trajectory: bool) -> Result<()> {
     let prefix = unique_prefix("simrestart");
     let service = start_service(data, &prefix, &[], &[]).await?;
     let client = service.client.clone();
@@ -100,7 +97,7 @@ async fn run(dir: &TempDir, data: &std::path::Path, strict_trajectory: bool) -> 
     let t_kill = before.last().context("an empty trajectory")?.t_s;
 
     // Second run: same robot, from the scenario's start.
-    let truth2 = dir.0.join("truth2.csv");
+    let truth2 = dir.join("truth2.csv");
     run_simulator_lockstep(
         &prefix,
         "r1",

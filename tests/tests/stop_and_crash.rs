@@ -19,7 +19,8 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, ensure};
 use common::{
-    TempDir, dump_log, run_simulator_lockstep, start_service, start_sketch_a_session, wait_session,
+    SERVICE_LOG, in_temp_dir, run_simulator_lockstep, start_service, start_sketch_a_session,
+    wait_session,
 };
 use sketchslam_api::{MappingMethod, SessionState, StopReason};
 use sketchslam_tests::processes::unique_prefix;
@@ -31,13 +32,10 @@ const STOPS: usize = 12;
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn concurrent_stops_store_one_intact_map_and_a_torn_save_is_cleaned_on_restart() -> Result<()>
 {
-    let dir = TempDir::new("stopcrash")?;
-    let data = dir.0.join("data");
-    let result = run(&data).await;
-    if result.is_err() {
-        dump_log(&data.with_extension("log"), 60);
-    }
-    result
+    in_temp_dir("stopcrash", &[(SERVICE_LOG, 60)], |dir| async move {
+        run(&dir.join("data")).await
+    })
+    .await
 }
 
 async fn run(data: &std::path::Path) -> Result<()> {
@@ -134,13 +132,10 @@ async fn run(data: &std::path::Path) -> Result<()> {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_session_whose_robot_falls_silent_stops_and_stores_itself() -> Result<()> {
-    let dir = TempDir::new("idlestop")?;
-    let data = dir.0.join("data");
-    let result = run_idle(&data).await;
-    if result.is_err() {
-        dump_log(&data.with_extension("log"), 60);
-    }
-    result
+    in_temp_dir("idlestop", &[(SERVICE_LOG, 60)], |dir| async move {
+        run_idle(&dir.join("data")).await
+    })
+    .await
 }
 
 async fn run_idle(data: &std::path::Path) -> Result<()> {

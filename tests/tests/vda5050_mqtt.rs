@@ -18,7 +18,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime};
 
 use anyhow::{Context, Result, bail, ensure};
-use common::{TempDir, dump_log, start_service, wait_session};
+use common::{SERVICE_LOG, in_temp_dir, start_service, wait_session};
 use rumqttc::{AsyncClient, Event, MqttOptions, Packet, QoS};
 use serde_json::Value;
 use sketchslam_api::MappingMethod;
@@ -200,14 +200,12 @@ fn check_all(got: &[Received], sessions: &BTreeMap<&str, String>) -> Result<()> 
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn vda5050_messages_follow_the_schemas_and_outlive_a_broker_restart() -> Result<()> {
-    let dir = TempDir::new("vda5050")?;
-    let data = dir.0.join("data");
-    let result = run(&dir.0, &data).await;
-    if result.is_err() {
-        dump_log(&data.with_extension("log"), 60);
-        dump_log(&dir.0.join("broker.log"), 20);
-    }
-    result
+    in_temp_dir(
+        "vda5050",
+        &[(SERVICE_LOG, 60), ("broker.log", 20)],
+        |dir| async move { run(&dir, &dir.join("data")).await },
+    )
+    .await
 }
 
 async fn run(dir: &Path, data: &Path) -> Result<()> {

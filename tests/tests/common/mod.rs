@@ -1,6 +1,7 @@
-//! Helpers shared by the multi-process robustness tests (`simulator_restart`,
-//! `service_restart`, `bad_scans`, `http_errors`): a temporary folder removed on drop, the
-//! real `slam-service` started on a free port and waited for, the simulator launched on
+//! Helpers shared by the multi-process tests (`simulator_restart`, `service_restart`,
+//! `bad_scans`, `http_errors`, `vda5050_mqtt`, ...): a temporary folder removed on drop and
+//! a test body run in one with its logs printed on failure ([`in_temp_dir`]), the real
+//! `slam-service` started on a free port and waited for, the simulator launched on
 //! `paper-env1`, and bounded polling of a session.
 //!
 //! Every wait has a deadline; every child is a [`ChildGuard`], killed on drop.
@@ -38,6 +39,27 @@ impl Drop for TempDir {
     fn drop(&mut self) {
         let _ = std::fs::remove_dir_all(&self.0);
     }
+}
+
+/// The log [`start_service`] writes for a data dir `DIR/data`, relative to `DIR`.
+pub const SERVICE_LOG: &str = "data.log";
+
+/// Runs `body` in a fresh temporary folder (removed afterwards; a service run in it keeps
+/// its data in `data/`), and when it fails prints the end of each of `logs`: paths relative
+/// to the folder with how many last lines, e.g. `(SERVICE_LOG, 60)`.
+pub async fn in_temp_dir<F, Fut>(tag: &str, logs: &[(&str, usize)], body: F) -> Result<()>
+where
+    F: FnOnce(PathBuf) -> Fut,
+    Fut: std::future::Future<Output = Result<()>>,
+{
+    let dir = TempDir::new(tag)?;
+    let result = body(dir.0.clone()).await;
+    if result.is_err() {
+        for (name, lines) in logs {
+            dump_log(&dir.0.join(name), *lines);
+        }
+    }
+    result
 }
 
 /// A running `slam-service` and a client of it.
