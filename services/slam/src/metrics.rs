@@ -77,7 +77,6 @@ pub fn render_metrics(
     histogram: &Histogram,
     process: &ProcessStats,
 ) -> String {
-    let rows = running;
     let mut out = String::new();
     let labels = |i: &SessionInfo| {
         format!(
@@ -90,7 +89,7 @@ pub fn render_metrics(
     let mut family =
         |name: &str, kind: &str, help: &str, value: &dyn Fn(&SessionInfo, u64) -> String| {
             out.push_str(&format!("# HELP {name} {help}\n# TYPE {name} {kind}\n"));
-            for (info, odo) in rows {
+            for (info, odo) in running {
                 out.push_str(&format!(
                     "{name}{{{}}} {}\n",
                     labels(info),

@@ -130,7 +130,7 @@ pub async fn run_session(
     }
     let (client, event_loop) = AsyncClient::new(options, QUEUE);
     let (link_tx, link) = watch::channel(false);
-    let loop_task = tokio::spawn(drive(
+    let mut loop_task = tokio::spawn(drive(
         event_loop,
         client.clone(),
         connection.clone(),
@@ -179,7 +179,6 @@ pub async fn run_session(
     connection.stopping.store(true, Ordering::SeqCst);
     connection.send(&client, ConnectionState::Offline);
     let _ = client.try_disconnect();
-    let mut loop_task = loop_task;
     if tokio::time::timeout(GOODBYE, &mut loop_task).await.is_err() {
         tracing::warn!(session = %info.id, "MQTT broker away at stop: OFFLINE not delivered");
         loop_task.abort();
