@@ -372,6 +372,7 @@ pub(crate) struct UploadQuery {
     responses(
         (status = 201, description = "Stored", body = SketchInfo),
         (status = 400, description = "Empty body", body = ErrorBody),
+        (status = 409, description = "As many sketches as the service keeps are stored (`too_many_sketches`): delete one first", body = ErrorBody),
         (status = 413, description = "Body or image too large", body = ErrorBody),
         (status = 422, description = "Not an image, or no lines in it", body = ErrorBody)))]
 pub(crate) async fn create_sketch(

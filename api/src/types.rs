@@ -328,6 +328,10 @@ pub enum SessionState {
     Stopped,
     /// The mapper failed; `last_error` says why.
     Failed,
+    /// The service ended without stopping it (a crash, a kill, a power cut): the map,
+    /// trajectory and status are those of its last checkpoint (`checkpoint_unix_ms`). It
+    /// holds no robot: a new session for the same robot can start.
+    Interrupted,
 }
 
 /// The status of a session.
@@ -383,6 +387,10 @@ pub struct SessionInfo {
     /// centre).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lidar_mount: Option<LidarMount>,
+    /// When the running session was last written to disk (its checkpoint: what a crash
+    /// would leave), milliseconds since the Unix epoch; absent before the first.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub checkpoint_unix_ms: Option<u64>,
 }
 
 /// Why a session stopped.

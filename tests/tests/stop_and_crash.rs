@@ -10,6 +10,11 @@
 //! and on restart the stopped session is served byte for byte, the temporary file is gone
 //! and the torn folder is moved to `incomplete/`, never listed.
 //!
+//! A service killed while sessions run lists them, after its restart, as `interrupted` with
+//! the map, trajectory and counts of their last checkpoint; a session killed before its
+//! robot sent anything is listed too (every session is written once at its start), and the
+//! robots are free for new sessions (issue 17, finding 2).
+//!
 //! And a session whose robot falls silent stops and stores itself (`--idle-stop-s`), saying
 //! so in its status, while one whose robot never started keeps waiting.
 
@@ -179,6 +184,94 @@ async fn run_idle(data: &std::path::Path) -> Result<()> {
     ensure!(
         by_hand.stop_reason == Some(StopReason::Requested),
         "{by_hand:?}"
+    );
+    Ok(())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_killed_service_lists_its_running_sessions_as_interrupted_with_their_checkpoint()
+-> Result<()> {
+    in_temp_dir("interrupted", &[(SERVICE_LOG, 60)], |dir| async move {
+        run_interrupted(&dir.join("data")).await
+    })
+    .await
+}
+
+async fn run_interrupted(data: &std::path::Path) -> Result<()> {
+    let prefix = unique_prefix("interrupted");
+    let args = ["--checkpoint-s", "0.5", "--idle-stop-s", "0"];
+    let mut service = start_service(data, &prefix, &args, &[]).await?;
+    let client = service.client.clone();
+    let (_, mapped) = start_sketch_a_session(&client, "r1").await?;
+    let request = baseline_session("r2", MappingMethod::Graph, None);
+    let waiting = client.create_session(&request).await?;
+    run_simulator_lockstep(&prefix, "r1", SCANS, None, Duration::from_secs(60)).await?;
+    wait_session(
+        &client,
+        &mapped.id,
+        Duration::from_secs(30),
+        "all scans",
+        |i| i.scans_processed >= SCANS,
+    )
+    .await?;
+    // The status says when the last checkpoint was written. Once nothing more arrives,
+    // the next checkpoint holds everything, and none follows it (nothing changed since):
+    // wait until the stamp has held for four periods.
+    let deadline = std::time::Instant::now() + Duration::from_secs(30);
+    let mut last = None;
+    let mut held_since = std::time::Instant::now();
+    loop {
+        let stamp = client.get_session(&mapped.id).await?.checkpoint_unix_ms;
+        if stamp != last {
+            (last, held_since) = (stamp, std::time::Instant::now());
+        } else if stamp.is_some() && held_since.elapsed() > Duration::from_secs(2) {
+            break;
+        }
+        ensure!(
+            std::time::Instant::now() < deadline,
+            "checkpoints never settled"
+        );
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    let live_trajectory = client.trajectory(&mapped.id).await?;
+
+    service.guard.kill();
+    let again = start_service(data, &prefix, &args, &[]).await?;
+    let c = &again.client;
+    let after = c.get_session(&mapped.id).await?;
+    ensure!(
+        after.state == SessionState::Interrupted
+            && after.scans_processed == SCANS
+            && after.checkpoint_unix_ms.is_some()
+            && after.stop_reason.is_none(),
+        "{after:?}"
+    );
+    ensure!(c.map_pgm(&mapped.id).await?.starts_with(b"P5"));
+    let trajectory = c.trajectory(&mapped.id).await?;
+    ensure!(
+        trajectory.points.len() == live_trajectory.points.len(),
+        "{} poses after the restart, {} before",
+        trajectory.points.len(),
+        live_trajectory.points.len()
+    );
+    let sketch_trajectory = c.sketch_trajectory(&mapped.id).await?;
+    ensure!(!sketch_trajectory.points.is_empty());
+    // The session whose robot never published is on record too.
+    let never = c.get_session(&waiting.id).await?;
+    ensure!(
+        never.state == SessionState::Interrupted && never.scans_processed == 0,
+        "{never:?}"
+    );
+    // Stopping an interrupted session changes nothing; its robots are free again.
+    ensure!(c.stop_session(&mapped.id).await?.state == SessionState::Interrupted);
+    let next = c
+        .create_session(&baseline_session("r1", MappingMethod::Graph, None))
+        .await?;
+    ensure!(next.state == SessionState::WaitingForData, "{next:?}");
+    let metrics = c.metrics().await?;
+    ensure!(
+        metrics.contains("sketchslam_sessions{state=\"interrupted\"} 2"),
+        "{metrics}"
     );
     Ok(())
 }

@@ -186,6 +186,7 @@ impl Backend for Fake {
             stopped_unix_ms: None,
             stop_reason: None,
             lidar_mount: r.lidar_mount,
+            checkpoint_unix_ms: None,
         };
         sessions.insert(info.id.clone(), info.clone());
         self.events

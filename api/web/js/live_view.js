@@ -66,7 +66,7 @@ export class LiveView {
   }
 
   get running() {
-    return !['stopped', 'failed'].includes(this.info.state);
+    return !['stopped', 'failed', 'interrupted'].includes(this.info.state);
   }
 
   wireButtons() {
@@ -110,7 +110,7 @@ export class LiveView {
 
   onStatus(s, ended = false) {
     const before = this.info.state;
-    this.info = ended && this.info.state !== 'failed' ? { ...s, state: 'stopped' } : s;
+    this.info = ended && this.running ? { ...s, state: 'stopped' } : s;
     this.showHealth(this.info);
     $('stop-button').disabled = !this.running;
     this.onChange?.(this.info);

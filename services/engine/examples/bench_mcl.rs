@@ -42,7 +42,7 @@ fn sketch() -> Sketch {
     Sketch {
         width_px: 1000,
         height_px: 700,
-        strokes: vec![false; 700_000],
+        strokes: fixedbitset::FixedBitSet::with_capacity(700_000),
         lines: segs
             .iter()
             .enumerate()

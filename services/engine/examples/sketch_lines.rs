@@ -41,7 +41,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let name = path.display().to_string();
         match result {
             Ok(sketch) => {
-                let strokes = sketch.strokes.iter().filter(|&&s| s).count();
+                let strokes = sketch.strokes.count_ones(..);
                 println!(
                     "{:<40} {:>11} {:>8} {:>6} {:>9.1}",
                     name,

@@ -30,7 +30,7 @@ fn sketch_from(width_px: u32, height_px: u32, segs: &[Segment]) -> Sketch {
     Sketch {
         width_px,
         height_px,
-        strokes: vec![false; (width_px * height_px) as usize],
+        strokes: fixedbitset::FixedBitSet::with_capacity((width_px * height_px) as usize),
         lines: segs
             .iter()
             .enumerate()

@@ -12,10 +12,9 @@ use sketchslam_api::{
 use sketchslam_engine::EngineError;
 use sketchslam_engine::mapper::{DrawingPoint, Health, PoseEstimate, TrajectoryPoint};
 use sketchslam_engine::mapping::grid::OccupancyGrid;
-use sketchslam_engine::sketch::Sketch;
 use sketchslam_types::trajectory_csv;
 
-use super::storage::SketchMeta;
+use super::storage::{SketchMeta, SketchShape};
 
 /// The pose response of a mapper state.
 pub fn pose_response(session_id: &str, pose: &PoseEstimate, health: &Health) -> PoseResponse {
@@ -110,14 +109,14 @@ pub fn no_drawing(session_id: &str, method: &str) -> ApiError {
 }
 
 /// The API's description of a stored sketch: its metadata and extracted lines.
-pub fn sketch_info(meta: &SketchMeta, sketch: &Sketch) -> SketchInfo {
+pub fn sketch_info(meta: &SketchMeta, shape: &SketchShape) -> SketchInfo {
     SketchInfo {
         id: meta.id.clone(),
         name: meta.name.clone(),
-        width_px: sketch.width_px,
-        height_px: sketch.height_px,
+        width_px: shape.width_px,
+        height_px: shape.height_px,
         created_unix_ms: meta.created_unix_ms,
-        lines: sketch
+        lines: shape
             .lines
             .iter()
             .map(|l| SketchLineInfo {

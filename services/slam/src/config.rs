@@ -20,6 +20,8 @@ pub struct ServiceConfig {
     pub ipc_prefix: String,
     /// How many sessions may run at once.
     pub max_sessions: usize,
+    /// How many sketches the data dir may hold; an upload beyond is refused (409).
+    pub max_sketches: usize,
     /// When set, every request except `/healthz` and the web page's files needs `Authorization: Bearer <token>`.
     pub token: Option<String>,
     /// The largest accepted request body, bytes.
@@ -33,6 +35,10 @@ pub struct ServiceConfig {
     /// A session whose robot has sent nothing for this long stops and stores itself;
     /// `None`: never.
     pub idle_stop: Option<std::time::Duration>,
+    /// Each running session that processed something since its last checkpoint is written
+    /// to the data dir this often (every session is also written once at its start);
+    /// `None`: only at its start.
+    pub checkpoint_period: Option<std::time::Duration>,
     /// Origins whose browser pages may call the API (CORS); `*` for any; empty: none but
     /// the service's own page.
     pub cors_origins: Vec<axum::http::HeaderValue>,
@@ -48,12 +54,14 @@ impl Default for ServiceConfig {
             data_dir: PathBuf::from("./data"),
             ipc_prefix: sketchslam_types::DEFAULT_PREFIX.to_string(),
             max_sessions: 16,
+            max_sketches: 1000,
             token: None,
             max_body_bytes: sketchslam_api::DEFAULT_MAX_BODY_BYTES,
             mapper: MapperConfig::default(),
             http: HttpLimits::default(),
             max_concurrent_uploads: sketchslam_api::DEFAULT_MAX_CONCURRENT_UPLOADS,
             idle_stop: Some(std::time::Duration::from_secs(60)),
+            checkpoint_period: Some(std::time::Duration::from_secs(30)),
             cors_origins: Vec::new(),
             vda5050: None,
         }
@@ -69,6 +77,8 @@ pub struct RegistryConfig {
     pub ipc_prefix: String,
     /// How many sessions may run at once.
     pub max_sessions: usize,
+    /// How many sketches the data dir may hold; an upload beyond is refused (409).
+    pub max_sketches: usize,
     /// Settings of every session's mapper.
     pub mapper: MapperConfig,
 }
@@ -79,6 +89,7 @@ impl From<&ServiceConfig> for RegistryConfig {
             data_dir: c.data_dir.clone(),
             ipc_prefix: c.ipc_prefix.clone(),
             max_sessions: c.max_sessions,
+            max_sketches: c.max_sketches,
             mapper: c.mapper.clone(),
         }
     }

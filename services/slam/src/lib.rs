@@ -139,21 +139,13 @@ pub async fn serve(
             std::time::Duration::from_millis(100),
             std::time::Duration::from_secs(1),
         );
-        let watched = Arc::downgrade(&registry);
-        tokio::spawn(async move {
-            let mut tick = tokio::time::interval(period);
-            loop {
-                tick.tick().await;
-                let Some(registry) = watched.upgrade() else {
-                    break;
-                };
-                if tokio::task::spawn_blocking(move || registry.stop_silent_sessions(silent))
-                    .await
-                    .is_err()
-                {
-                    break;
-                }
-            }
+        every(period, &registry, move |r| {
+            r.stop_silent_sessions(silent);
+        });
+    }
+    if let Some(period) = config.checkpoint_period {
+        every(period, &registry, |r| {
+            r.checkpoint_sessions();
         });
     }
     let stopping = registry.clone();
@@ -181,4 +173,31 @@ pub async fn serve(
     }
     tracing::info!("slam-service stopped");
     Ok(())
+}
+
+/// Runs `job` on the blocking pool every `period` (the first after one period) for as
+/// long as the registry lives.
+fn every(
+    period: std::time::Duration,
+    registry: &Arc<Registry>,
+    job: impl Fn(&Registry) + Clone + Send + 'static,
+) {
+    let watched = Arc::downgrade(registry);
+    tokio::spawn(async move {
+        let mut tick = tokio::time::interval(period);
+        tick.tick().await; // the first tick is immediate
+        loop {
+            tick.tick().await;
+            let Some(registry) = watched.upgrade() else {
+                break;
+            };
+            let job = job.clone();
+            if tokio::task::spawn_blocking(move || job(&registry))
+                .await
+                .is_err()
+            {
+                break;
+            }
+        }
+    });
 }

@@ -147,6 +147,7 @@ pub fn render_metrics(
         (SessionState::Mapping, "mapping"),
         (SessionState::Stopped, "stopped"),
         (SessionState::Failed, "failed"),
+        (SessionState::Interrupted, "interrupted"),
     ] {
         let n = states.iter().filter(|s| **s == state).count();
         out.push_str(&format!("sketchslam_sessions{{state=\"{name}\"}} {n}\n"));

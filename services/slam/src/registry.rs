@@ -3,10 +3,15 @@
 //!
 //! Locks are held only to look entries up or swap them; decoding sketches, starting and
 //! stopping sessions and rendering maps happen outside them.
+//!
+//! A stored drawing is kept as its listing (size and lines) only; its stroke mask is read
+//! from the data dir when a session starts on it or its picture is drawn, and held while
+//! anything uses it ([`StoredSketch::sketch`]). Opening a data dir of many drawings reads
+//! small files and decodes no image, so the service answers at once.
 
 use std::collections::{BTreeMap, HashSet};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, Weak};
 
 use axum::body::Bytes;
 use sketchslam_api::{
@@ -27,7 +32,7 @@ use super::metrics::{Histogram, render_metrics};
 use super::process_stats::ProcessStats;
 use super::registration_codec::{not_registered, registration_from_info, transform_response};
 use super::session::{Session, lock, now_unix_ms};
-use super::storage::{SessionMeta, SketchMeta, Storage};
+use super::storage::{SessionMeta, SketchMeta, SketchShape, Storage};
 use super::vda5050::StartedSession;
 use sketchslam_engine::EngineError;
 use sketchslam_engine::mapper::{Mapper, SketchPrior};
@@ -35,10 +40,42 @@ use sketchslam_engine::sketch::overlay::{encode_png, render_overlay};
 use sketchslam_engine::sketch::{Sketch, SketchPose};
 use tokio::sync::mpsc;
 
-/// A stored sketch, processed.
+/// A stored sketch: its listing, and its processed drawing while something uses it.
 struct StoredSketch {
     info: SketchInfo,
-    sketch: Arc<Sketch>,
+    shape: SketchShape,
+    /// The drawing with its stroke mask, alive while a session or a request holds it.
+    loaded: Mutex<Weak<Sketch>>,
+}
+
+impl StoredSketch {
+    fn new(meta: &SketchMeta, shape: SketchShape, loaded: Weak<Sketch>) -> Self {
+        Self {
+            info: sketch_info(meta, &shape),
+            shape,
+            loaded: Mutex::new(loaded),
+        }
+    }
+
+    /// The processed drawing: the one in use, or read back from `storage` (its lines as
+    /// listed, its mask from `strokes.bin`).
+    fn sketch(&self, storage: &Storage) -> Result<Arc<Sketch>, ApiError> {
+        let mut loaded = lock(&self.loaded);
+        if let Some(sketch) = loaded.upgrade() {
+            return Ok(sketch);
+        }
+        let strokes = storage
+            .read_strokes(&self.info.id, &self.shape)
+            .map_err(|e| ApiError::internal(format!("reading sketch {}: {e}", self.info.id)))?;
+        let sketch = Arc::new(Sketch {
+            width_px: self.shape.width_px,
+            height_px: self.shape.height_px,
+            strokes,
+            lines: self.shape.lines.clone(),
+        });
+        *loaded = Arc::downgrade(&sketch);
+        Ok(sketch)
+    }
 }
 
 enum Entry {
@@ -90,23 +127,37 @@ impl Registry {
             source: e,
         };
         let mut sketches = BTreeMap::new();
-        for (meta, image) in storage.load_sketches().map_err(data_dir_err)? {
-            match Sketch::from_image_bytes(&image) {
-                Ok(sketch) => {
-                    let info = sketch_info(&meta, &sketch);
-                    sketches.insert(
-                        meta.id.clone(),
-                        Arc::new(StoredSketch {
-                            info,
-                            sketch: Arc::new(sketch),
-                        }),
-                    );
-                }
-                Err(e) => tracing::warn!(id = %meta.id, error = %e, "skipping stored sketch"),
-            }
+        for (meta, shape) in storage.load_sketches().map_err(data_dir_err)? {
+            let shape = match shape {
+                Some(shape) => shape,
+                None => match processed_again(&storage, &meta) {
+                    Ok(shape) => shape,
+                    Err(e) => {
+                        tracing::warn!(id = %meta.id, error = %e, "skipping stored sketch");
+                        continue;
+                    }
+                },
+            };
+            let stored = StoredSketch::new(&meta, shape, Weak::new());
+            sketches.insert(meta.id.clone(), Arc::new(stored));
         }
         let mut sessions = Sessions::default();
-        for meta in storage.load_sessions().map_err(data_dir_err)? {
+        for mut meta in storage.load_sessions().map_err(data_dir_err)? {
+            if matches!(
+                meta.info.state,
+                SessionState::WaitingForData | SessionState::Mapping
+            ) {
+                // A checkpoint of a session that was running when the service died.
+                tracing::warn!(
+                    session = %meta.info.id,
+                    robot = %meta.info.robot_id,
+                    scans = meta.info.scans_processed,
+                    checkpoint_unix_ms = meta.info.checkpoint_unix_ms,
+                    "a session was running when the service ended: listed as interrupted, \
+                     with its last checkpoint"
+                );
+                meta.info.state = SessionState::Interrupted;
+            }
             sessions
                 .entries
                 .insert(meta.info.id.clone(), Entry::Stopped(Box::new(meta)));
@@ -136,6 +187,28 @@ impl Registry {
             .get(id)
             .cloned()
             .ok_or_else(|| ApiError::sketch_not_found(id))
+    }
+
+    /// `too_many_sketches` when the data dir holds `max_sketches` already.
+    fn room_for_a_sketch(&self) -> Result<(), ApiError> {
+        self.room_for_a_sketch_in(&lock(&self.sketches))
+    }
+
+    fn room_for_a_sketch_in(
+        &self,
+        sketches: &BTreeMap<String, Arc<StoredSketch>>,
+    ) -> Result<(), ApiError> {
+        if sketches.len() >= self.config.max_sketches {
+            return Err(ApiError::conflict(
+                "too_many_sketches",
+                format!(
+                    "{} sketches are stored, the limit is {}; delete one first",
+                    sketches.len(),
+                    self.config.max_sketches
+                ),
+            ));
+        }
+        Ok(())
     }
 
     fn live(&self, id: &str) -> Result<Result<Arc<Session>, Box<SessionMeta>>, ApiError> {
@@ -215,6 +288,47 @@ impl Registry {
             .collect()
     }
 
+    /// Writes a checkpoint of every running session that processed something since its
+    /// last one ([`Session::checkpoint`]); returns how many were written. A failed write is
+    /// logged and retried at the next call.
+    pub fn checkpoint_sessions(&self) -> usize {
+        let live: Vec<Arc<Session>> = lock(&self.sessions)
+            .entries
+            .values()
+            .filter_map(|e| match e {
+                Entry::Live(s) => Some(s.clone()),
+                Entry::Stopped(_) => None,
+            })
+            .collect();
+        live.iter().filter(|s| self.checkpoint(s)).count()
+    }
+
+    /// One session's checkpoint; false when none was written.
+    fn checkpoint(&self, session: &Session) -> bool {
+        let started = std::time::Instant::now();
+        let written = session.checkpoint(|meta, files| {
+            self.storage.save_session(meta, files).map_err(|e| {
+                ApiError::internal(format!("checkpoint of session {}: {e}", session.id))
+            })
+        });
+        match written {
+            Ok(written) => {
+                if written {
+                    tracing::debug!(
+                        session = %session.id,
+                        elapsed_ms = started.elapsed().as_secs_f64() * 1e3,
+                        "checkpoint written"
+                    );
+                }
+                written
+            }
+            Err(e) => {
+                tracing::error!(session = %session.id, error = %e, "checkpoint failed");
+                false
+            }
+        }
+    }
+
     /// Sends every session started from now on, with its events from its start, to
     /// `observer` (until [`Registry::shutdown`]).
     pub fn observe_sessions(&self, observer: mpsc::UnboundedSender<StartedSession>) {
@@ -253,7 +367,7 @@ impl Registry {
                 let start = request
                     .start
                     .ok_or_else(|| ApiError::invalid("missing_field", "start: required"))?;
-                let sketch = &stored.sketch;
+                let sketch = stored.sketch(&self.storage)?;
                 if !sketch.contains(start.u, start.v) {
                     return Err(ApiError::invalid(
                         "invalid_start",
@@ -263,13 +377,7 @@ impl Registry {
                         ),
                     ));
                 }
-                let (col, row) = (start.u as usize, start.v as usize);
-                if sketch
-                    .strokes
-                    .get(row * sketch.width_px as usize + col)
-                    .copied()
-                    .unwrap_or(false)
-                {
+                if sketch.is_stroke(start.u, start.v) {
                     return Err(ApiError::invalid(
                         "invalid_start",
                         format!(
@@ -279,7 +387,7 @@ impl Registry {
                     ));
                 }
                 Some(SketchPrior {
-                    sketch: sketch.clone(),
+                    sketch,
                     start: SketchPose {
                         u_px: start.u,
                         v_px: start.v,
@@ -324,6 +432,7 @@ impl Registry {
             stopped_unix_ms: None,
             stop_reason: None,
             lidar_mount: request.lidar_mount,
+            checkpoint_unix_ms: None,
         };
         Session::start(info, mapper, self.ipc.clone(), self.histogram.clone())
     }
@@ -331,24 +440,24 @@ impl Registry {
 
 impl Backend for Registry {
     fn create_sketch(&self, name: Option<String>, image: Bytes) -> Result<SketchInfo, ApiError> {
-        let sketch = Sketch::from_image_bytes(&image).map_err(image_error)?;
+        self.room_for_a_sketch()?;
+        let sketch = Arc::new(Sketch::from_image_bytes(&image).map_err(image_error)?);
         let meta = SketchMeta {
             id: uuid::Uuid::new_v4().to_string(),
             name,
             created_unix_ms: now_unix_ms(),
         };
+        let mut sketches = lock(&self.sketches);
+        // Again under the lock: uploads decode in parallel.
+        self.room_for_a_sketch_in(&sketches)?;
         self.storage
-            .save_sketch(&meta, &image)
+            .save_sketch(&meta, &image, &sketch)
             .map_err(|e| ApiError::internal(format!("storing sketch {}: {e}", meta.id)))?;
-        let info = sketch_info(&meta, &sketch);
+        let stored = StoredSketch::new(&meta, SketchShape::of(&sketch), Arc::downgrade(&sketch));
+        let info = stored.info.clone();
+        sketches.insert(meta.id.clone(), Arc::new(stored));
+        drop(sketches);
         tracing::info!(id = %meta.id, lines = info.lines.len(), "sketch stored");
-        lock(&self.sketches).insert(
-            meta.id.clone(),
-            Arc::new(StoredSketch {
-                info: info.clone(),
-                sketch: Arc::new(sketch),
-            }),
-        );
         Ok(info)
     }
 
@@ -366,8 +475,8 @@ impl Backend for Registry {
     }
 
     fn sketch_overlay_png(&self, id: &str) -> Result<Vec<u8>, ApiError> {
-        let stored = self.sketch(id)?;
-        Ok(encode_png(&render_overlay(&stored.sketch)))
+        let sketch = self.sketch(id)?.sketch(&self.storage)?;
+        Ok(encode_png(&render_overlay(&sketch)))
     }
 
     fn delete_sketch(&self, id: &str) -> Result<(), ApiError> {
@@ -427,13 +536,16 @@ impl Backend for Registry {
         let started = self.start_session(&request, &id);
         let mut sessions = lock(&self.sessions);
         sessions.starting.remove(&request.robot_id);
-        let session = started?;
+        let session = Arc::new(started?);
         let info = session.info();
         if let Some(observer) = lock(&self.observer).as_ref() {
             // From its first event (kept since the start), not from now.
             let _ = observer.send((info.clone(), session.subscribe(Some(0))));
         }
-        sessions.entries.insert(id, Entry::Live(Arc::new(session)));
+        sessions.entries.insert(id, Entry::Live(session.clone()));
+        drop(sessions);
+        // On disk from its start, so that a crash leaves a record of it (`interrupted`).
+        self.checkpoint(&session);
         Ok(info)
     }
 
@@ -629,4 +741,18 @@ impl Backend for Registry {
             &ProcessStats::read(),
         )
     }
+}
+
+/// A sketch stored before `sketch.json` and `strokes.bin` existed: its image decoded once
+/// more and the two files added, so the next start reads them instead.
+fn processed_again(storage: &Storage, meta: &SketchMeta) -> Result<SketchShape, String> {
+    let image = storage
+        .read_sketch_image(&meta.id)
+        .map_err(|e| e.to_string())?;
+    let sketch = Sketch::from_image_bytes(&image).map_err(|e| e.to_string())?;
+    storage
+        .save_processed_sketch(&meta.id, &sketch)
+        .map_err(|e| e.to_string())?;
+    tracing::info!(id = %meta.id, "stored sketch processed again and its lines kept");
+    Ok(SketchShape::of(&sketch))
 }

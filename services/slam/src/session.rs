@@ -114,6 +114,9 @@ pub struct Session {
     warp_worker: Mutex<Option<(Arc<AtomicBool>, JoinHandle<()>)>>,
     /// The answer of the one stop ([`Session::stop_with`]), once given.
     stopped: Mutex<Option<Result<SessionMeta, ApiError>>>,
+    /// Scans processed and trajectory length at the last checkpoint
+    /// ([`Session::checkpoint`]); `None` before it.
+    checkpointed: Mutex<Option<(u64, usize)>>,
 }
 
 impl Session {
@@ -167,6 +170,7 @@ impl Session {
             threads: Mutex::new(Some((intake, thread))),
             warp_worker: Mutex::new(warp_worker),
             stopped: Mutex::new(None),
+            checkpointed: Mutex::new(None),
         })
     }
 
@@ -317,22 +321,107 @@ impl Session {
         ))
     }
 
-    /// What a stopped session keeps of its registration, from one copy of the map; `None`
-    /// without a drawing or with nothing registered.
-    fn registration_files(&self) -> Option<RegistrationFiles> {
-        let (r, sketch) = self.registered().ok()?;
-        let grid = self.grid();
+    /// What a session keeps of its registration through `r`, rendered over `grid`.
+    fn registration_files(
+        &self,
+        r: &DrawingRegistration,
+        sketch: &Sketch,
+        grid: &OccupancyGrid,
+    ) -> Option<RegistrationFiles> {
         Some(RegistrationFiles {
-            registration_json: serde_json::to_vec(&registration_info(&self.id, &r)).ok()?,
-            sketch_overlay_png: self.overlay_png(&r, &sketch, &grid),
+            registration_json: serde_json::to_vec(&registration_info(&self.id, r)).ok()?,
+            sketch_overlay_png: self.overlay_png(r, sketch, grid),
             sketch_in_map_json: serde_json::to_vec(&sketch_in_map_response(
                 &self.id,
-                &r,
+                r,
                 &sketch.lines,
             ))
             .ok()?,
-            sketch_in_map_png: in_map_png(&r, &sketch, &grid),
+            sketch_in_map_png: in_map_png(r, sketch, grid),
         })
+    }
+
+    /// The pose and the files of the session as it is now, its pose and route carried onto
+    /// the drawing through `warp` (when there is one): what a stop stores, and what a
+    /// checkpoint does. The map is the one last built (a checkpoint does not wait for the
+    /// rebuild after a loop closure; a stop's mapper thread rebuilt it before it ended).
+    /// The map-on-drawing pictures are rendered only `with_registration` (a stop): they
+    /// cost seconds on a large floor.
+    fn snapshot(
+        &self,
+        warp: Option<Arc<DrawingRegistration>>,
+        with_registration: bool,
+    ) -> (PoseResponse, SessionFiles) {
+        let (grid, points, pose, on_drawing, sketch) = {
+            let m = lock(&self.mapper);
+            let estimate = m.pose();
+            let mut pose = pose_response(&self.id, &estimate, &m.health());
+            if let Some(r) = &warp {
+                pose_through_warp(&mut pose, r, &estimate.map);
+            }
+            let on_drawing = (m.method() == Method::Sketch)
+                .then(|| served_sketch_trajectory(&self.id, &m, warp.as_deref()));
+            let sketch = m.drawing().map(|d| d.sketch.clone());
+            let grid = m.grid_as_built().clone();
+            (grid, m.trajectory().to_vec(), pose, on_drawing, sketch)
+        };
+        let map_json = serde_json::to_vec(&occupancy_response(&self.id, &grid))
+            .unwrap_or_else(|_| b"{}".to_vec());
+        let registration = match (&warp, &sketch) {
+            (Some(r), Some(sketch)) if with_registration => {
+                self.registration_files(r, sketch, &grid)
+            }
+            _ => None,
+        };
+        let files = SessionFiles {
+            map_pgm: grid.to_pgm(),
+            map_yaml: grid.to_yaml("map.pgm"),
+            map_png: grid.to_png(),
+            map_json,
+            trajectory_csv: trajectory_csv(&points),
+            sketch_trajectory_json: on_drawing.and_then(|t| serde_json::to_vec(&t).ok()),
+            registration,
+        };
+        (pose, files)
+    }
+
+    /// Writes the running session to disk through `store` (a checkpoint: what a crash
+    /// leaves of it) unless nothing was processed since the last one or it has stopped;
+    /// returns whether it wrote. Serialized with [`Session::stop_with`], so a checkpoint
+    /// never lands after the final save. The pose goes onto the drawing through the warp
+    /// last fitted (a checkpoint fits none), and the map-on-drawing files are left to the
+    /// stop: an interrupted session answers them `not_registered`.
+    pub fn checkpoint(
+        &self,
+        store: impl FnOnce(&SessionMeta, &SessionFiles) -> Result<(), ApiError>,
+    ) -> Result<bool, ApiError> {
+        let slot = lock(&self.stopped);
+        if slot.is_some() || !self.shared.mapping.load(Ordering::Acquire) {
+            return Ok(false);
+        }
+        // Odometry alone moves the trajectory too: both counts say whether anything changed.
+        let progress = (
+            lock(&self.shared.info).scans_processed,
+            lock(&self.mapper).trajectory().len(),
+        );
+        let mut last = lock(&self.checkpointed);
+        if *last == Some(progress) {
+            return Ok(false);
+        }
+        let (pose, files) = self.snapshot(self.shared.warp.current(), false);
+        let mut info = lock(&self.shared.info).clone();
+        info.checkpoint_unix_ms = Some(now_unix_ms());
+        store(
+            &SessionMeta {
+                info: info.clone(),
+                pose,
+            },
+            &files,
+        )?;
+        lock(&self.shared.info).checkpoint_unix_ms = info.checkpoint_unix_ms;
+        *last = Some(progress);
+        drop(slot);
+        Ok(true)
     }
 
     /// Stops the intake (it drains what arrived), lets the mapper process everything
@@ -346,25 +435,10 @@ impl Session {
             }
         }
         self.stop_warp_worker();
-        // The final map's warp, whatever the worker fitted last.
+        // The final map's warp, whatever the worker fitted last. The mapper thread rebuilt
+        // the map when the intake hung up.
         let warp = self.shared.warp.refit(&self.mapper);
-        let (grid, points, pose, on_drawing) = {
-            // The mapper thread rebuilt the map when the intake hung up.
-            let m = lock(&self.mapper);
-            let estimate = m.pose();
-            let mut pose = pose_response(&self.id, &estimate, &m.health());
-            if let Some(r) = &warp {
-                pose_through_warp(&mut pose, r, &estimate.map);
-            }
-            let on_drawing = (m.method() == Method::Sketch)
-                .then(|| served_sketch_trajectory(&self.id, &m, warp.as_deref()));
-            (
-                m.grid_as_built().clone(),
-                m.trajectory().to_vec(),
-                pose,
-                on_drawing,
-            )
-        };
+        let (pose, files) = self.snapshot(warp, true);
         *lock(&self.shared.pose) = pose.clone();
         let info = {
             let mut info = lock(&self.shared.info);
@@ -375,17 +449,6 @@ impl Session {
             info.clone()
         };
         self.shared.publish_status();
-        let map_json = serde_json::to_vec(&occupancy_response(&self.id, &grid))
-            .unwrap_or_else(|_| b"{}".to_vec());
-        let files = SessionFiles {
-            map_pgm: grid.to_pgm(),
-            map_yaml: grid.to_yaml("map.pgm"),
-            map_png: grid.to_png(),
-            map_json,
-            trajectory_csv: trajectory_csv(&points),
-            sketch_trajectory_json: on_drawing.and_then(|t| serde_json::to_vec(&t).ok()),
-            registration: self.registration_files(),
-        };
         tracing::info!(
             session = %self.id,
             scans = info.scans_processed,

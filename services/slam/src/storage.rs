@@ -1,8 +1,11 @@
 //! The data dir: sketches and stopped sessions, kept across restarts.
 //!
 //! ```text
-//! <data-dir>/sketches/<id>/image      the uploaded bytes, as sent
-//! <data-dir>/sketches/<id>/meta.json  id, name, upload time
+//! <data-dir>/sketches/<id>/image        the uploaded bytes, as sent
+//! <data-dir>/sketches/<id>/sketch.json  size and lines extracted at upload (SketchShape)
+//! <data-dir>/sketches/<id>/strokes.bin  the stroke mask, one bit a pixel (row-major,
+//!                                       pixel i in bit i % 8 of byte i / 8)
+//! <data-dir>/sketches/<id>/meta.json    id, name, upload time (written last)
 //! <data-dir>/sessions/<id>/map.pgm, map.yaml, map.png, map.json, trajectory.csv
 //! <data-dir>/sessions/<id>/sketch-trajectory.json                       (sketch sessions)
 //! <data-dir>/sessions/<id>/registration.json, sketch-overlay.png,
@@ -22,8 +25,10 @@ use std::fs;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
+use fixedbitset::FixedBitSet;
 use serde::{Deserialize, Serialize};
 use sketchslam_api::{PoseResponse, SessionInfo};
+use sketchslam_engine::sketch::{Sketch, SketchLine};
 
 /// Metadata of a stored sketch.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -34,6 +39,70 @@ pub struct SketchMeta {
     pub name: Option<String>,
     /// Upload time, ms since the epoch.
     pub created_unix_ms: u64,
+}
+
+/// What the service keeps of a processed drawing besides its stroke mask (`sketch.json`):
+/// enough to list it and to show its lines without decoding the image again. The lines
+/// are those extracted at upload, so a later version's extraction never renumbers the
+/// lines of a drawing already in use.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SketchShape {
+    /// Image width, pixels.
+    pub width_px: u32,
+    /// Image height, pixels.
+    pub height_px: u32,
+    /// The extracted lines.
+    pub lines: Vec<SketchLine>,
+}
+
+impl SketchShape {
+    /// The shape of a processed drawing.
+    pub fn of(sketch: &Sketch) -> Self {
+        Self {
+            width_px: sketch.width_px,
+            height_px: sketch.height_px,
+            lines: sketch.lines.clone(),
+        }
+    }
+
+    /// Pixels in the image.
+    pub fn pixels(&self) -> usize {
+        self.width_px as usize * self.height_px as usize
+    }
+}
+
+/// A stored sketch as the service lists it: its metadata and, unless it was stored by a
+/// version before 2026-12-03 (only the image then), its shape.
+pub type ListedSketch = (SketchMeta, Option<SketchShape>);
+
+/// A stroke mask as `strokes.bin` holds it: pixel `i` in bit `i % 8` of byte `i / 8`.
+pub fn mask_to_bytes(mask: &FixedBitSet) -> Vec<u8> {
+    let mut bytes = vec![0u8; mask.len().div_ceil(8)];
+    for i in mask.ones() {
+        bytes[i / 8] |= 1 << (i % 8);
+    }
+    bytes
+}
+
+/// [`mask_to_bytes`] undone for a mask of `pixels` bits; `None` when the length is not
+/// `pixels` rounded up to bytes, or a bit past the last pixel is set.
+pub fn mask_from_bytes(bytes: &[u8], pixels: usize) -> Option<FixedBitSet> {
+    if bytes.len() != pixels.div_ceil(8) {
+        return None;
+    }
+    let mut mask = FixedBitSet::with_capacity(pixels);
+    for (k, &byte) in bytes.iter().enumerate().filter(|(_, b)| **b != 0) {
+        for bit in 0..8 {
+            if byte >> bit & 1 == 1 {
+                let i = k * 8 + bit;
+                if i >= pixels {
+                    return None;
+                }
+                mask.insert(i);
+            }
+        }
+    }
+    Some(mask)
 }
 
 /// Metadata of a stopped session.
@@ -232,16 +301,53 @@ impl Storage {
         }
     }
 
-    /// Stores an uploaded sketch.
-    pub fn save_sketch(&self, meta: &SketchMeta, image: &[u8]) -> io::Result<()> {
+    /// Stores an uploaded sketch: its image as sent and what was extracted from it
+    /// (`meta.json` last).
+    pub fn save_sketch(&self, meta: &SketchMeta, image: &[u8], sketch: &Sketch) -> io::Result<()> {
         let dir = self.sketch_dir(&meta.id)?;
         fs::create_dir_all(&dir)?;
         sync_dir(&self.root.join("sketches"))?;
         write_atomic(&dir.join("image"), image)?;
-        sync_dir(&dir)?;
+        self.write_processed(&dir, sketch)?;
         let json = serde_json::to_vec_pretty(meta).map_err(io::Error::other)?;
         write_atomic(&dir.join("meta.json"), &json)?;
         sync_dir(&dir)
+    }
+
+    /// Adds `sketch.json` and `strokes.bin` to a sketch stored before they existed.
+    pub fn save_processed_sketch(&self, id: &str, sketch: &Sketch) -> io::Result<()> {
+        let dir = self.sketch_dir(id)?;
+        self.write_processed(&dir, sketch)
+    }
+
+    /// `strokes.bin`, then `sketch.json` (whose presence says both are there).
+    fn write_processed(&self, dir: &Path, sketch: &Sketch) -> io::Result<()> {
+        write_atomic(&dir.join("strokes.bin"), &mask_to_bytes(&sketch.strokes))?;
+        sync_dir(dir)?;
+        let shape = serde_json::to_vec(&SketchShape::of(sketch)).map_err(io::Error::other)?;
+        write_atomic(&dir.join("sketch.json"), &shape)?;
+        sync_dir(dir)
+    }
+
+    /// A stored sketch's image as uploaded.
+    pub fn read_sketch_image(&self, id: &str) -> io::Result<Vec<u8>> {
+        fs::read(self.sketch_dir(id)?.join("image"))
+    }
+
+    /// A stored sketch's stroke mask (`shape` says its size).
+    pub fn read_strokes(&self, id: &str, shape: &SketchShape) -> io::Result<FixedBitSet> {
+        let bytes = fs::read(self.sketch_dir(id)?.join("strokes.bin"))?;
+        mask_from_bytes(&bytes, shape.pixels()).ok_or_else(|| {
+            io::Error::new(
+                io::ErrorKind::InvalidData,
+                format!(
+                    "strokes.bin of sketch {id}: {} bytes do not hold a {} × {} mask",
+                    bytes.len(),
+                    shape.width_px,
+                    shape.height_px
+                ),
+            )
+        })
     }
 
     /// Removes a stored sketch.
@@ -253,8 +359,10 @@ impl Storage {
         }
     }
 
-    /// Every complete stored sketch with its image bytes; incomplete ones are skipped.
-    pub fn load_sketches(&self) -> io::Result<Vec<(SketchMeta, Vec<u8>)>> {
+    /// Every complete stored sketch with its shape (small files only: no image is read or
+    /// decoded, so a data dir of many drawings opens at once); incomplete ones are skipped.
+    /// A shape that cannot be read is `None`, as for an entry stored before shapes were.
+    pub fn load_sketches(&self) -> io::Result<Vec<ListedSketch>> {
         let mut out = Vec::new();
         for entry in fs::read_dir(self.root.join("sketches"))? {
             let dir = entry?.path();
@@ -264,8 +372,14 @@ impl Storage {
                 if !safe_id(&meta.id) {
                     return Err(format!("unsafe id {:?}", meta.id));
                 }
-                let image = fs::read(dir.join("image")).map_err(|e| e.to_string())?;
-                Ok((meta, image))
+                let shape = fs::read(dir.join("sketch.json")).ok().and_then(|json| {
+                    serde_json::from_slice::<SketchShape>(&json)
+                        .inspect_err(|e| {
+                            tracing::warn!(dir = %dir.display(), error = %e, "unreadable sketch.json: the image will be decoded again")
+                        })
+                        .ok()
+                });
+                Ok((meta, shape))
             })();
             match loaded {
                 Ok(item) => out.push(item),
@@ -352,6 +466,51 @@ mod tests {
         }
     }
 
+    /// A 5 × 3 drawing: one stroke along its middle row, one line on it.
+    fn drawing() -> Sketch {
+        let flags: Vec<bool> = (0..15).map(|i| (5..10).contains(&i)).collect();
+        Sketch {
+            width_px: 5,
+            height_px: 3,
+            strokes: Sketch::mask_from_flags(&flags),
+            lines: vec![SketchLine::new(
+                0,
+                sketchslam_types::Point2::new(0.5, 1.5),
+                sketchslam_types::Point2::new(4.5, 1.5),
+            )],
+        }
+    }
+
+    #[test]
+    fn a_stroke_mask_packs_eight_pixels_a_byte_and_reads_back() {
+        // Pixels 5..10 set: byte 0 = bits 5, 6, 7 (0b1110_0000), byte 1 = bits 0, 1.
+        let mask = drawing().strokes;
+        assert_eq!(mask_to_bytes(&mask), vec![0b1110_0000, 0b0000_0011]);
+        assert_eq!(mask_from_bytes(&[0b1110_0000, 0b0000_0011], 15), Some(mask));
+        // The wrong length, or a bit set past the last pixel, is not a mask of 15 pixels.
+        assert_eq!(mask_from_bytes(&[0, 0, 0], 15), None);
+        assert_eq!(mask_from_bytes(&[0, 0b1000_0000], 15), None);
+    }
+
+    #[test]
+    fn a_stored_sketch_reads_back_its_mask_and_lines_without_its_image() {
+        let dir = data_dir("shape");
+        let (storage, _) = Storage::open(dir.path()).unwrap();
+        let drawn = drawing();
+        storage
+            .save_sketch(&sketch("s1"), b"not even an image", &drawn)
+            .unwrap();
+        let listed = storage.load_sketches().unwrap();
+        let shape = listed[0].1.clone().unwrap();
+        assert_eq!(shape, SketchShape::of(&drawn));
+        assert_eq!(storage.read_strokes("s1", &shape).unwrap(), drawn.strokes);
+        // A mask cut short is an error naming the file, not a drawing of another size.
+        let bin = dir.path().join("sketches/s1/strokes.bin");
+        fs::write(&bin, [0u8]).unwrap();
+        let err = storage.read_strokes("s1", &shape).unwrap_err();
+        assert!(err.to_string().contains("strokes.bin"), "{err}");
+    }
+
     #[test]
     fn concurrent_writers_of_one_folder_never_mix_their_files() {
         // Before 2026-12-03 every file of a folder went through one `<stem>.tmp`: two
@@ -384,7 +543,7 @@ mod tests {
         let (storage, clean) = Storage::open(dir.path()).unwrap();
         assert!(clean.is_empty());
         storage
-            .save_sketch(&sketch("kept"), b"image bytes")
+            .save_sketch(&sketch("kept"), b"image bytes", &drawing())
             .unwrap();
         // A crash during writes: a temporary file in a complete entry, an old-style
         // `map.tmp`, and a session whose meta.json was never written.
@@ -421,7 +580,8 @@ mod tests {
         let sketches = storage.load_sketches().unwrap();
         assert_eq!(sketches.len(), 1);
         assert_eq!(sketches[0].0, sketch("kept"));
-        assert_eq!(sketches[0].1, b"image bytes");
+        assert_eq!(sketches[0].1, Some(SketchShape::of(&drawing())));
+        assert_eq!(storage.read_sketch_image("kept").unwrap(), b"image bytes");
         assert!(storage.load_sessions().unwrap().is_empty());
         // A second open finds nothing more to clean.
         assert!(Storage::open(dir.path()).unwrap().1.is_empty());

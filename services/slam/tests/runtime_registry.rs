@@ -37,10 +37,15 @@ fn unique_prefix() -> String {
 }
 
 fn registry(dir: &Path, prefix: &str) -> Registry {
+    registry_keeping(dir, prefix, 100)
+}
+
+fn registry_keeping(dir: &Path, prefix: &str, max_sketches: usize) -> Registry {
     Registry::open(RegistryConfig {
         data_dir: dir.to_path_buf(),
         ipc_prefix: prefix.to_string(),
         max_sessions: 4,
+        max_sketches,
         mapper: Default::default(),
     })
     .unwrap()
@@ -220,7 +225,7 @@ fn sketches_are_ingested_and_starts_validated() {
     assert!(outside.to_string().contains("start"));
     // A pixel on a stroke.
     let sketch = Sketch::from_image_bytes(&png).unwrap();
-    let on_stroke = sketch.strokes.iter().position(|&s| s).unwrap();
+    let on_stroke = sketch.strokes.ones().next().unwrap();
     let (u, v) = (
         (on_stroke % sketch.width_px as usize) as f64 + 0.5,
         (on_stroke / sketch.width_px as usize) as f64 + 0.5,
@@ -250,6 +255,69 @@ fn sketches_are_ingested_and_starts_validated() {
         code(reg.get_sketch(&info.id).unwrap_err()),
         "sketch_not_found"
     );
+    reg.shutdown();
+}
+
+#[test]
+fn stored_sketches_open_without_decoding_their_images_and_are_capped() {
+    let dir = TempDir::new();
+    let prefix = unique_prefix();
+    let reg = registry_keeping(&dir.0, &prefix, 2);
+    let png = Bytes::from(sketch_a());
+    let first = reg.create_sketch(Some("A".into()), png.clone()).unwrap();
+    let second = reg.create_sketch(None, png.clone()).unwrap();
+    let over = reg.create_sketch(None, png.clone()).unwrap_err();
+    assert_eq!(code(over.clone()), "too_many_sketches", "{over}");
+    reg.delete_sketch(&second.id).unwrap();
+    let second = reg.create_sketch(None, png.clone()).unwrap();
+    let overlay = reg.sketch_overlay_png(&first.id).unwrap();
+    reg.shutdown();
+    drop(reg);
+
+    // The images are no longer pictures: a start that decoded them would refuse them. A
+    // third entry as versions before 2026-12-03 stored it (image and meta.json only) is
+    // processed once at the start and gains the files the next start reads.
+    for s in [&first, &second] {
+        std::fs::write(dir.0.join("sketches").join(&s.id).join("image"), b"gone").unwrap();
+    }
+    let old = dir.0.join("sketches/old-style");
+    std::fs::create_dir_all(&old).unwrap();
+    std::fs::write(old.join("image"), &png).unwrap();
+    std::fs::write(
+        old.join("meta.json"),
+        br#"{"id": "old-style", "name": "old", "created_unix_ms": 3}"#,
+    )
+    .unwrap();
+    let reg = registry_keeping(&dir.0, &prefix, 3);
+    assert_eq!(reg.get_sketch(&first.id).unwrap(), first);
+    assert_eq!(reg.get_sketch(&second.id).unwrap().lines, first.lines);
+    assert_eq!(reg.get_sketch("old-style").unwrap().lines, first.lines);
+    assert!(old.join("sketch.json").exists() && old.join("strokes.bin").exists());
+    // The mask is read back from strokes.bin: the same picture, the same refusals.
+    assert_eq!(reg.sketch_overlay_png(&first.id).unwrap(), overlay);
+    let sketch = Sketch::from_image_bytes(&png).unwrap();
+    let on_stroke = sketch.strokes.ones().next().unwrap();
+    let w = sketch.width_px as usize;
+    let start = |u: f64, v: f64| CreateSessionRequest {
+        robot_id: "r1".into(),
+        method: MappingMethod::Sketch,
+        sketch_id: Some(first.id.clone()),
+        start: Some(SketchStart {
+            u,
+            v,
+            heading_deg: 1.1,
+        }),
+        meters_per_pixel: Some(0.1),
+        seed: None,
+        lidar_mount: None,
+    };
+    let (u, v) = ((on_stroke % w) as f64 + 0.5, (on_stroke / w) as f64 + 0.5);
+    assert_eq!(
+        code(reg.create_session(start(u, v)).unwrap_err()),
+        "invalid_start"
+    );
+    let session = reg.create_session(start(66.9, 320.3)).unwrap();
+    reg.stop_session(&session.id).unwrap();
     reg.shutdown();
 }
 

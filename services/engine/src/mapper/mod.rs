@@ -738,7 +738,7 @@ mod tests {
         let sketch = Sketch {
             width_px: 220,
             height_px: 140,
-            strokes: vec![false; 220 * 140],
+            strokes: fixedbitset::FixedBitSet::with_capacity(220 * 140),
             lines: walls
                 .iter()
                 .enumerate()

@@ -109,7 +109,7 @@ impl Sketch {
         Ok(Sketch {
             width_px: w,
             height_px: h,
-            strokes,
+            strokes: Sketch::mask_from_flags(&strokes),
             lines,
         })
     }

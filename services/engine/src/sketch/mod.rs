@@ -19,6 +19,7 @@ pub use ingest::{SketchLimits, SketchOptions};
 pub use overlay::{encode_png, render_overlay};
 pub use threshold::ThresholdConfig;
 
+use fixedbitset::FixedBitSet;
 use sketchslam_types::Point2;
 
 /// One straight wall of the drawing, in sketch pixels.
@@ -66,8 +67,9 @@ pub struct Sketch {
     pub width_px: u32,
     /// Image height, pixels.
     pub height_px: u32,
-    /// Row-major stroke mask, `width_px × height_px`: true where the person drew.
-    pub strokes: Vec<bool>,
+    /// Row-major stroke mask, `width_px × height_px` bits: set where the person drew (one
+    /// bit a pixel: a kept 16-megapixel drawing holds 2 MB, not 16).
+    pub strokes: FixedBitSet,
     /// The extracted straight lines, `lines[i].index == i`.
     pub lines: Vec<SketchLine>,
 }
@@ -76,6 +78,23 @@ impl Sketch {
     /// True when `(u, v)` (pixels) lies inside the image.
     pub fn contains(&self, u: f64, v: f64) -> bool {
         u >= 0.0 && v >= 0.0 && u < self.width_px as f64 && v < self.height_px as f64
+    }
+
+    /// True when the pixel holding `(u, v)` is a stroke; false outside the image.
+    pub fn is_stroke(&self, u: f64, v: f64) -> bool {
+        self.contains(u, v)
+            && self
+                .strokes
+                .contains(v as usize * self.width_px as usize + u as usize)
+    }
+
+    /// A stroke mask from one flag a pixel, row-major.
+    pub fn mask_from_flags(flags: &[bool]) -> FixedBitSet {
+        let mut mask = FixedBitSet::with_capacity(flags.len());
+        for (i, _) in flags.iter().enumerate().filter(|(_, s)| **s) {
+            mask.insert(i);
+        }
+        mask
     }
 }
 

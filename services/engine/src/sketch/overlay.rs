@@ -42,10 +42,8 @@ pub fn strokes_on_white(sketch: &Sketch, colour: Rgb<u8>) -> RgbImage {
     let (w, h) = (sketch.width_px, sketch.height_px);
     let mut img = RgbImage::from_pixel(w, h, Rgb([255, 255, 255]));
     if sketch.strokes.len() as u64 == w as u64 * h as u64 {
-        for (i, &s) in sketch.strokes.iter().enumerate() {
-            if s {
-                img.put_pixel(i as u32 % w, i as u32 / w, colour);
-            }
+        for i in sketch.strokes.ones() {
+            img.put_pixel(i as u32 % w, i as u32 / w, colour);
         }
     }
     img
@@ -133,7 +131,7 @@ mod tests {
         let sketch = Sketch {
             width_px: 60,
             height_px: 40,
-            strokes: vec![false; 60 * 40],
+            strokes: fixedbitset::FixedBitSet::with_capacity(60 * 40),
             lines: vec![SketchLine::new(
                 0,
                 Point2::new(5.0, 20.0),

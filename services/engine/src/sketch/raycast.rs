@@ -404,7 +404,7 @@ mod tests {
         Sketch {
             width_px: size,
             height_px: size,
-            strokes: vec![false; (size * size) as usize],
+            strokes: fixedbitset::FixedBitSet::with_capacity((size * size) as usize),
             lines: lines
                 .iter()
                 .enumerate()

@@ -26,6 +26,11 @@ struct Args {
     /// How many sessions may run at once.
     #[arg(long, env = "SKETCHSLAM_MAX_SESSIONS", default_value_t = 16)]
     max_sessions: usize,
+    /// How many drawings may be stored; an upload beyond is refused (409
+    /// `too_many_sketches`). A stored drawing costs its files on disk and, in memory, its
+    /// lines only (its stroke mask is read while a session uses it).
+    #[arg(long, env = "SKETCHSLAM_MAX_SKETCHES", default_value_t = 1000)]
+    max_sketches: usize,
     /// Largest accepted request body, bytes.
     #[arg(long, env = "SKETCHSLAM_MAX_BODY_BYTES", default_value_t = sketchslam_api::DEFAULT_MAX_BODY_BYTES)]
     max_body_bytes: usize,
@@ -39,6 +44,11 @@ struct Args {
     /// itself (its status says `robot_silent`); 0: never.
     #[arg(long, env = "SKETCHSLAM_IDLE_STOP_S", default_value_t = 60.0)]
     idle_stop_s: f64,
+    /// Seconds between checkpoints of each running session (its map, trajectory and
+    /// status written to the data dir, so that a crash leaves it `interrupted`, not lost);
+    /// 0: only the one at its start.
+    #[arg(long, env = "SKETCHSLAM_CHECKPOINT_S", default_value_t = 30.0)]
+    checkpoint_s: f64,
     /// HTTP connections served at once; more wait until one closes.
     #[arg(long, env = "SKETCHSLAM_MAX_CONNECTIONS", default_value_t = HttpLimits::default().max_connections)]
     max_connections: usize,
@@ -179,10 +189,16 @@ fn main() -> anyhow::Result<()> {
         data_dir: args.data_dir,
         ipc_prefix: args.ipc_prefix,
         max_sessions: args.max_sessions,
+        max_sketches: args.max_sketches,
         token: args.token.filter(|t| !t.is_empty()),
         max_body_bytes: args.max_body_bytes,
         http,
         max_concurrent_uploads: args.max_concurrent_uploads.max(1),
+        checkpoint_period: if args.checkpoint_s == 0.0 {
+            None
+        } else {
+            Some(seconds("checkpoint-s", args.checkpoint_s)?)
+        },
         idle_stop: if args.idle_stop_s == 0.0 {
             None
         } else {
