@@ -11,12 +11,13 @@ use axum::body::Bytes;
 use crate::error::ApiError;
 use crate::event_log::EventSubscription;
 use crate::map_image::TaggedPng;
+use crate::occupancy::OccupancyGridResponse;
 use crate::registration::{
     RegistrationInfo, SketchInMapResponse, TransformRequest, TransformResponse,
 };
 use crate::types::{
-    CreateSessionRequest, OccupancyGridResponse, PoseResponse, SessionInfo, SketchInfo,
-    SketchSummary, SketchTrajectoryResponse, TrajectoryResponse,
+    CreateSessionRequest, PoseResponse, SessionInfo, SketchInfo, SketchSummary,
+    SketchTrajectoryResponse, TrajectoryResponse,
 };
 
 /// The operations behind the HTTP API.

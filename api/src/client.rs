@@ -12,12 +12,13 @@ use serde::de::DeserializeOwned;
 use thiserror::Error;
 
 use crate::error::ErrorBody;
+use crate::occupancy::OccupancyGridResponse;
 use crate::registration::{
     RegistrationInfo, SketchInMapResponse, TransformRequest, TransformResponse,
 };
 use crate::types::{
-    CreateSessionRequest, HealthResponse, OccupancyGridResponse, PoseResponse, SessionEvent,
-    SessionInfo, SessionList, SketchInfo, SketchList, SketchTrajectoryResponse, TrajectoryResponse,
+    CreateSessionRequest, HealthResponse, PoseResponse, SessionEvent, SessionInfo, SessionList,
+    SketchInfo, SketchList, SketchTrajectoryResponse, TrajectoryResponse,
 };
 
 /// What a client call can fail with.

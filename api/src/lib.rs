@@ -18,6 +18,7 @@ pub mod error;
 pub mod event_log;
 pub mod extract;
 pub mod map_image;
+pub mod occupancy;
 pub mod openapi;
 pub mod openapi_wire;
 pub mod registration;
@@ -31,6 +32,9 @@ pub use client::{ClientError, EventStream, SketchslamClient};
 pub use error::{ApiError, ErrorBody, ErrorDetail};
 pub use event_log::{EventLog, EventSubscription, NumberedEvent};
 pub use map_image::{MapFrame, TaggedPng};
+pub use occupancy::{
+    MapMetaData, OccupancyGridResponse, RosHeader, RosPoint, RosPose, RosQuaternion, RosTime,
+};
 pub use openapi::ApiDoc;
 pub use registration::*;
 pub use router::{

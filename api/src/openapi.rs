@@ -5,17 +5,19 @@ use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
 use utoipa::{Modify, OpenApi};
 
 use crate::error::{ErrorBody, ErrorDetail};
+use crate::occupancy::{
+    MapMetaData, OccupancyGridResponse, RosHeader, RosPoint, RosPose, RosQuaternion, RosTime,
+};
 use crate::openapi_wire::WireFixes;
 use crate::registration::{
     DrawingPointIn, DrawingPointOut, MapPointIn, MapPointOut, RegistrationInfo,
     SketchInMapResponse, SketchLineInMap, TransformRequest, TransformResponse, WarpInfo,
 };
 use crate::types::{
-    CreateSessionRequest, HealthResponse, LidarMount, MappingMethod, OccupancyGridResponse,
-    PixelPoint, Pose2Info, PoseResponse, SessionEvent, SessionInfo, SessionList, SessionState,
-    SketchInfo, SketchLineInfo, SketchList, SketchPoseInfo, SketchPoseSource, SketchStart,
-    SketchSummary, SketchTrajectoryPointInfo, SketchTrajectoryResponse, StopReason,
-    TrajectoryPointInfo, TrajectoryResponse,
+    CreateSessionRequest, HealthResponse, LidarMount, MappingMethod, PixelPoint, PoseResponse,
+    SessionEvent, SessionInfo, SessionList, SessionState, SketchInfo, SketchLineInfo, SketchList,
+    SketchPoseInfo, SketchPoseSource, SketchStart, SketchSummary, SketchTrajectoryPointInfo,
+    SketchTrajectoryResponse, StopReason, TrajectoryPointInfo, TrajectoryResponse,
 };
 use crate::{registration_routes, router};
 
@@ -57,7 +59,8 @@ use crate::{registration_routes, router};
     ),
     components(schemas(
         ErrorBody, ErrorDetail, CreateSessionRequest, HealthResponse, MappingMethod,
-        OccupancyGridResponse, PixelPoint, Pose2Info, PoseResponse, SessionEvent, SessionInfo,
+        OccupancyGridResponse, MapMetaData, RosHeader, RosTime, RosPose, RosPoint, RosQuaternion,
+        PixelPoint, PoseResponse, SessionEvent, SessionInfo,
         SessionList, SessionState, StopReason, SketchInfo, SketchLineInfo, SketchList,
         SketchPoseInfo, SketchPoseSource, LidarMount,
         SketchStart, SketchSummary, SketchTrajectoryPointInfo, SketchTrajectoryResponse,

@@ -28,14 +28,15 @@ use crate::error::{ApiError, ErrorBody};
 use crate::event_log::{EventSubscription, NumberedEvent};
 use crate::extract::{ApiBytes, ApiJson, ApiPath, ApiQuery};
 use crate::map_image::{MAP_ORIGIN_X_HEADER, MAP_ORIGIN_Y_HEADER, MAP_RESOLUTION_HEADER};
+use crate::occupancy::OccupancyGridResponse;
 use crate::openapi::ApiDoc;
 use crate::registration_routes::{
     session_registration, session_sketch_in_map, session_sketch_in_map_png, session_sketch_overlay,
     session_transform,
 };
 use crate::types::{
-    CreateSessionRequest, HealthResponse, OccupancyGridResponse, PoseResponse, SessionEvent,
-    SessionInfo, SessionList, SketchInfo, SketchList,
+    CreateSessionRequest, HealthResponse, PoseResponse, SessionEvent, SessionInfo, SessionList,
+    SketchInfo, SketchList,
 };
 use crate::web;
 

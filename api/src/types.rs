@@ -575,36 +575,6 @@ impl TrajectoryPointInfo {
     }
 }
 
-/// A pose in the plane (the grid's origin).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct Pose2Info {
-    /// Meters.
-    pub x: f64,
-    /// Meters.
-    pub y: f64,
-    /// Radians.
-    pub theta: f64,
-}
-
-/// `GET /v1/sessions/{id}/map`: occupancy as ROS `nav_msgs/OccupancyGrid`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct OccupancyGridResponse {
-    /// The session.
-    pub session_id: String,
-    /// The frame of the grid (`map`).
-    pub frame_id: String,
-    /// Cells along x.
-    pub width: u32,
-    /// Cells along y.
-    pub height: u32,
-    /// Meters per cell.
-    pub resolution: f64,
-    /// The map-frame pose of cell (0, 0)'s outer corner.
-    pub origin: Pose2Info,
-    /// Row-major from the row at `origin` (lowest y) upwards: -1 unknown, 0..100 occupancy.
-    pub data: Vec<i8>,
-}
-
 /// `GET /healthz`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct HealthResponse {

@@ -337,9 +337,11 @@ async fn session_lifecycle_and_per_session_endpoints() {
     assert_eq!(yaml.status, StatusCode::OK);
     assert!(yaml.text().contains("image: map.pgm"));
     let grid = get(&h.app, &format!("/v1/sessions/{id}/map")).await.json();
-    assert_eq!(grid["width"], 2);
+    assert_eq!(grid["header"]["frame_id"], "map");
+    assert_eq!(grid["info"]["width"], 2);
     assert_eq!(grid["data"], json!([-1, 100]));
-    assert_eq!(grid["origin"]["x"], -0.05);
+    assert_eq!(grid["info"]["origin"]["position"]["x"], -0.05);
+    assert_eq!(grid["info"]["origin"]["orientation"]["w"], 1.0);
 
     let stopped = delete(&h.app, &format!("/v1/sessions/{id}")).await;
     assert_eq!(stopped.status, StatusCode::OK);

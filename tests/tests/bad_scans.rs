@@ -215,20 +215,23 @@ async fn run(data: &std::path::Path) -> Result<()> {
         "{pose:?}"
     );
 
-    let map = client.map(&session.id).await?;
-    ensure!(map.data.len() == (map.width * map.height) as usize);
-    let (s, c) = map.origin.theta.sin_cos();
+    let grid = client.map(&session.id).await?;
+    let map = &grid.info;
+    ensure!(grid.data.len() == (map.width * map.height) as usize);
+    ensure!(grid.header.frame_id == "map");
+    let origin = map.origin.position;
+    let (s, c) = map.origin.orientation.yaw_rad().sin_cos();
     let (mut walls, mut garbage) = (0usize, Vec::new());
     for row in 0..map.height as usize {
         for col in 0..map.width as usize {
-            let v = map.data[row * map.width as usize + col];
+            let v = grid.data[row * map.width as usize + col];
             if v < 0 || (20..65).contains(&v) {
                 continue;
             }
             let lx = (col as f64 + 0.5) * map.resolution;
             let ly = (row as f64 + 0.5) * map.resolution;
-            let x = map.origin.x + c * lx - s * ly;
-            let y = map.origin.y + s * lx + c * ly;
+            let x = origin.x + c * lx - s * ly;
+            let y = origin.y + s * lx + c * ly;
             // On a wall: within two cells of the box's outline.
             let tol = 2.0 * map.resolution + 0.02;
             let inside_outer = x.abs() <= HALF_X + tol && y.abs() <= HALF_Y + tol;

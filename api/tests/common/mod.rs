@@ -306,15 +306,16 @@ impl Backend for Fake {
     fn map_occupancy(&self, id: &str) -> Result<OccupancyGridResponse, ApiError> {
         self.session(id)?;
         Ok(OccupancyGridResponse {
-            session_id: id.to_string(),
-            frame_id: "map".to_string(),
-            width: 2,
-            height: 1,
-            resolution: 0.05,
-            origin: Pose2Info {
-                x: -0.05,
-                y: 0.0,
-                theta: 0.0,
+            header: RosHeader {
+                stamp: RosTime::default(),
+                frame_id: "map".to_string(),
+            },
+            info: MapMetaData {
+                map_load_time: RosTime::default(),
+                resolution: 0.05,
+                width: 2,
+                height: 1,
+                origin: RosPose::planar(-0.05, 0.0, 0.0),
             },
             data: vec![-1, 100],
         })

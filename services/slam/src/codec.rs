@@ -5,9 +5,9 @@
 //! function says how each engine value looks on the wire.
 
 use sketchslam_api::{
-    ApiError, OccupancyGridResponse, PixelPoint, Pose2Info, PoseResponse, SketchInfo,
-    SketchLineInfo, SketchPoseInfo, SketchPoseSource, SketchTrajectoryPointInfo,
-    SketchTrajectoryResponse, TrajectoryPointInfo, TrajectoryResponse,
+    ApiError, MapMetaData, OccupancyGridResponse, PixelPoint, PoseResponse, RosHeader, RosPose,
+    RosTime, SketchInfo, SketchLineInfo, SketchPoseInfo, SketchPoseSource,
+    SketchTrajectoryPointInfo, SketchTrajectoryResponse, TrajectoryPointInfo, TrajectoryResponse,
 };
 use sketchslam_engine::EngineError;
 use sketchslam_engine::mapper::{DrawingPoint, Health, PoseEstimate, TrajectoryPoint};
@@ -43,21 +43,65 @@ pub fn pose_response(session_id: &str, pose: &PoseEstimate, health: &Health) -> 
 }
 
 /// The API's occupancy JSON of a grid.
-pub fn occupancy_response(session_id: &str, grid: &OccupancyGrid) -> OccupancyGridResponse {
+pub fn occupancy_response(grid: &OccupancyGrid, stamp_ns: u64) -> OccupancyGridResponse {
     let ros = grid.to_ros_occupancy();
+    let stamp = RosTime::from_ns(stamp_ns);
     OccupancyGridResponse {
-        session_id: session_id.to_string(),
-        frame_id: "map".to_string(),
-        width: ros.width as u32,
-        height: ros.height as u32,
-        resolution: ros.resolution_m,
-        origin: Pose2Info {
-            x: ros.origin.x,
-            y: ros.origin.y,
-            theta: ros.origin.heading_rad,
+        header: RosHeader {
+            stamp,
+            frame_id: "map".to_string(),
+        },
+        info: MapMetaData {
+            map_load_time: stamp,
+            resolution: ros.resolution_m,
+            width: ros.width as u32,
+            height: ros.height as u32,
+            origin: RosPose::planar(ros.origin.x, ros.origin.y, ros.origin.heading_rad),
         },
         data: ros.data,
     }
+}
+
+/// `map.json` as versions before 2026-12-04 stored it: flat, the origin as `(x, y, θ)`.
+#[derive(serde::Deserialize)]
+struct FlatOccupancy {
+    frame_id: String,
+    width: u32,
+    height: u32,
+    resolution: f64,
+    origin: FlatOrigin,
+    data: Vec<i8>,
+}
+
+#[derive(serde::Deserialize)]
+struct FlatOrigin {
+    x: f64,
+    y: f64,
+    theta: f64,
+}
+
+/// A stored `map.json`, in today's shape or in the flat one of older versions (stamped
+/// 0: they kept no stamp).
+pub fn stored_occupancy(json: &[u8]) -> Result<OccupancyGridResponse, serde_json::Error> {
+    serde_json::from_slice(json).or_else(|e| {
+        let Ok(flat) = serde_json::from_slice::<FlatOccupancy>(json) else {
+            return Err(e);
+        };
+        Ok(OccupancyGridResponse {
+            header: RosHeader {
+                stamp: RosTime::default(),
+                frame_id: flat.frame_id,
+            },
+            info: MapMetaData {
+                map_load_time: RosTime::default(),
+                resolution: flat.resolution,
+                width: flat.width,
+                height: flat.height,
+                origin: RosPose::planar(flat.origin.x, flat.origin.y, flat.origin.theta),
+            },
+            data: flat.data,
+        })
+    })
 }
 
 /// The API's trajectory of mapper trajectory points.
@@ -164,4 +208,27 @@ pub fn stored_trajectory_response(
             .map(TrajectoryPointInfo::from_stamped_pose)
             .collect(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_map_stored_in_the_flat_shape_is_served_in_the_ros_one() {
+        let flat = br#"{"session_id": "s", "frame_id": "map", "width": 2, "height": 1,
+            "resolution": 0.05, "origin": {"x": -1.0, "y": 2.0, "theta": 3.141592653589793},
+            "data": [-1, 100]}"#;
+        let grid = stored_occupancy(flat).unwrap();
+        assert_eq!(grid.header.frame_id, "map");
+        assert_eq!((grid.info.width, grid.info.height), (2, 1));
+        assert_eq!(grid.info.origin.position.x, -1.0);
+        // A half turn: (0, 0, 1, 0).
+        assert!((grid.info.origin.orientation.z - 1.0).abs() < 1e-12);
+        assert_eq!(grid.data, vec![-1, 100]);
+        // Today's shape reads back as itself; anything else is an error.
+        let json = serde_json::to_vec(&grid).unwrap();
+        assert_eq!(stored_occupancy(&json).unwrap(), grid);
+        assert!(stored_occupancy(b"{}").is_err());
+    }
 }

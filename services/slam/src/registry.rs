@@ -24,7 +24,8 @@ use sketchslam_ipc::IpcConfig;
 
 use super::RuntimeError;
 use super::codec::{
-    image_error, no_drawing, occupancy_response, sketch_info, stored_trajectory_response,
+    image_error, no_drawing, occupancy_response, sketch_info, stored_occupancy,
+    stored_trajectory_response,
 };
 use super::config::RegistryConfig;
 use super::method::engine_method;
@@ -646,8 +647,11 @@ impl Backend for Registry {
 
     fn map_occupancy(&self, id: &str) -> Result<OccupancyGridResponse, ApiError> {
         match self.live(id)? {
-            Ok(s) => Ok(occupancy_response(id, &s.grid())),
-            Err(_) => serde_json::from_slice(&self.stored_file(id, "map.json")?)
+            Ok(s) => {
+                let grid = s.grid();
+                Ok(occupancy_response(&grid, s.last_stamp_ns()))
+            }
+            Err(_) => stored_occupancy(&self.stored_file(id, "map.json")?)
                 .map_err(|e| ApiError::internal(format!("map.json of session {id}: {e}"))),
         }
     }

@@ -220,6 +220,14 @@ impl Session {
         self.shared.events.subscribe(last_seen)
     }
 
+    /// The sensor stamp of the last pose, ns (0 before the first): the map's time.
+    pub fn last_stamp_ns(&self) -> u64 {
+        lock(&self.mapper)
+            .trajectory()
+            .last()
+            .map_or(0, |p| p.stamp_ns)
+    }
+
     /// The trajectory so far.
     pub fn trajectory(&self) -> TrajectoryResponse {
         let points = lock(&self.mapper).trajectory().to_vec();
@@ -365,7 +373,8 @@ impl Session {
             let grid = m.grid_as_built().clone();
             (grid, m.trajectory().to_vec(), pose, on_drawing, sketch)
         };
-        let map_json = serde_json::to_vec(&occupancy_response(&self.id, &grid))
+        let stamp_ns = points.last().map_or(0, |p| p.stamp_ns);
+        let map_json = serde_json::to_vec(&occupancy_response(&grid, stamp_ns))
             .unwrap_or_else(|_| b"{}".to_vec());
         let registration = match (&warp, &sketch) {
             (Some(r), Some(sketch)) if with_registration => {

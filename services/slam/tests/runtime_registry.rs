@@ -155,13 +155,17 @@ fn assert_same_grid(
     a: &sketchslam_api::OccupancyGridResponse,
     b: &sketchslam_api::OccupancyGridResponse,
 ) {
-    assert_eq!((a.width, a.height), (b.width, b.height));
+    assert_eq!(a.header, b.header);
+    let (a_info, b_info) = (&a.info, &b.info);
+    assert_eq!((a_info.width, a_info.height), (b_info.width, b_info.height));
+    let (ao, bo) = (a_info.origin, b_info.origin);
     // JSON keeps 15-17 significant digits, not always the last bit.
     for (x, y) in [
-        (a.resolution, b.resolution),
-        (a.origin.x, b.origin.x),
-        (a.origin.y, b.origin.y),
-        (a.origin.theta, b.origin.theta),
+        (a_info.resolution, b_info.resolution),
+        (ao.position.x, bo.position.x),
+        (ao.position.y, bo.position.y),
+        (ao.orientation.z, bo.orientation.z),
+        (ao.orientation.w, bo.orientation.w),
     ] {
         assert!((x - y).abs() < 1e-9, "{x} != {y}");
     }
