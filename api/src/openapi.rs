@@ -29,7 +29,12 @@ use crate::{registration_routes, router};
         description = "Metric maps from 2D LiDAR and odometry with a hand-drawn sketch as prior. \
                        Errors are `{\"error\": {\"code\", \"message\"}}`. When the service has a \
                        token, every request except /healthz and the web page's files (`/`, \
-                       `/app.css`, `/js/*`) needs `Authorization: Bearer <token>`."
+                       `/app.css`, `/js/*`) needs `Authorization: Bearer <token>`. A method a path \
+                       does not list is answered 405 `method_not_allowed` with an `Allow` \
+                       header. Before the API, the HTTP layer answers without a body: 414 for \
+                       a request line it will not read, 431 for headers too large or too many \
+                       (more than 100), 408 for a request not complete within the service's \
+                       --request-timeout-s."
     ),
     paths(
         router::healthz,

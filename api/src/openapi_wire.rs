@@ -6,7 +6,8 @@
 //!   declared empty instead;
 //! - binary bodies (`image/*`, PGM) as `string`/`binary` rather than arrays of integers,
 //!   and the upload's `image/jpeg` beside `image/png`;
-//! - `413` on every operation with a request body;
+//! - `413` on every operation with a request body; `408`, `414` and `431` (the HTTP layer's,
+//!   without a body) on every operation;
 //! - the event stream as its events (`event`, `id`, `data`), not the JSON wrapper the Rust
 //!   type serializes to, and `map.yaml` as the object a YAML reader gets.
 
@@ -51,6 +52,25 @@ fn fix_operation(op: &mut Operation, public: bool) {
             .or_insert_with(|| {
                 error_response("Missing or wrong bearer token (when the service has one)")
             });
+    }
+    for (status, description) in [
+        (
+            "408",
+            "The request was not complete within --request-timeout-s (no body)",
+        ),
+        (
+            "414",
+            "The request line is longer than the HTTP layer reads (no body)",
+        ),
+        (
+            "431",
+            "Headers too large or more than 100 of them (no body)",
+        ),
+    ] {
+        op.responses
+            .responses
+            .entry(status.into())
+            .or_insert_with(|| RefOr::T(Response::new(description)));
     }
     if let Some(body) = op.request_body.as_mut() {
         for (content_type, content) in body.content.iter_mut() {
@@ -212,6 +232,13 @@ mod tests {
                 assert!(
                     op["responses"]["413"].is_object(),
                     "{method} {path}: no 413"
+                );
+            }
+            for status in ["408", "414", "431"] {
+                let r = &op["responses"][status];
+                assert!(
+                    r.is_object() && r["content"].is_null(),
+                    "{method} {path}: {status} {r}"
                 );
             }
         }
