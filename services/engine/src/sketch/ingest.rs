@@ -19,6 +19,7 @@ use image::{DynamicImage, ImageError, ImageReader, Limits};
 
 use super::Sketch;
 use super::hough::{LineExtractionConfig, extract_lines};
+use super::jpeg_check::{jpeg_data_can_fill_header, jpeg_is_complete};
 use super::threshold::{ThresholdConfig, detect_strokes};
 use crate::EngineError;
 
@@ -147,46 +148,6 @@ fn check_dimensions(w: u32, h: u32, limits: &SketchLimits) -> Result<(), EngineE
 
 /// True when a JPEG's image data is followed by its end-of-image marker (`FF D9`).
 ///
-/// Walks the marker segments from the start-of-image (`FF D8`): each has a 2-byte length
-/// after its marker, and headers (tables, `APPn` with their thumbnails) are skipped whole.
-/// After a start-of-scan (`FF DA`) the entropy-coded data follows, in which a `FF` byte is
-/// always stuffed (`FF 00`) or a restart marker (`FF D0`–`FF D7`); the next other marker
-/// ends the scan: another segment (a progressive JPEG's next tables and scans) or `FF D9`.
-/// A file cut anywhere before that marker is incomplete (ITU-T T.81, B.1.1 and F.1.2.3).
-/// O(bytes).
-fn jpeg_is_complete(bytes: &[u8]) -> bool {
-    let mut i = 2;
-    while i + 1 < bytes.len() {
-        if bytes[i] != 0xFF {
-            return false;
-        }
-        let marker = bytes[i + 1];
-        match marker {
-            0xD9 => return true,
-            // Fill bytes before a marker.
-            0xFF => i += 1,
-            // Markers without a length.
-            0x01 | 0xD0..=0xD7 => i += 2,
-            _ => {
-                let Some(len) = bytes.get(i + 2..i + 4) else {
-                    return false;
-                };
-                let len = u16::from_be_bytes([len[0], len[1]]) as usize;
-                i += 2 + len;
-                if marker == 0xDA {
-                    // Entropy-coded data up to the next marker that is not a stuffed byte
-                    // or a restart.
-                    let in_data = |b: u8, next: u8| b != 0xFF || matches!(next, 0x00 | 0xD0..=0xD7);
-                    while i + 1 < bytes.len() && in_data(bytes[i], bytes[i + 1]) {
-                        i += 1;
-                    }
-                }
-            }
-        }
-    }
-    false
-}
-
 fn map_image_error(err: ImageError) -> EngineError {
     match err {
         ImageError::Limits(e) => EngineError::ImageTooLarge(e.to_string()),
@@ -232,11 +193,19 @@ pub fn decode_gray(bytes: &[u8], limits: &SketchLimits) -> Result<GrayImage, Eng
     };
     let (w, h) = reader()?.into_dimensions().map_err(map_image_error)?;
     check_dimensions(w, h, limits)?;
-    if bytes.starts_with(&[0xFF, 0xD8]) && !jpeg_is_complete(bytes) {
-        // The decoder fills what is missing with grey, and the cut becomes a drawn wall.
-        return Err(EngineError::ImageDecode(
-            "the JPEG is cut short (no end-of-image marker after its image data)".into(),
-        ));
+    if bytes.starts_with(&[0xFF, 0xD8]) {
+        if !jpeg_is_complete(bytes) {
+            // The decoder fills what is missing with grey, and the cut becomes a drawn wall.
+            return Err(EngineError::ImageDecode(
+                "the JPEG is cut short (no end-of-image marker after its image data)".into(),
+            ));
+        }
+        if !jpeg_data_can_fill_header(bytes) {
+            return Err(EngineError::ImageDecode(format!(
+                "the JPEG's image data are too short for the {w} × {h} px picture its header \
+                 declares (damaged, or a header that does not match its data)"
+            )));
+        }
     }
 
     let mut decoder_limits = Limits::default();
@@ -299,6 +268,7 @@ pub fn to_gray(image: &DynamicImage) -> GrayImage {
 
 #[cfg(test)]
 mod tests {
+    use super::super::jpeg_check::tests::{drawing_jpeg, sof_size_at};
     use super::*;
 
     #[test]
@@ -342,6 +312,32 @@ mod tests {
                     Ok(_) => panic!("{format:?} cut at {keep} of {} decoded", bytes.len()),
                 }
             }
+        }
+    }
+
+    #[test]
+    fn a_jpeg_whose_data_do_not_fill_its_header_is_refused() {
+        let limits = SketchLimits::default();
+        for colour in [false, true] {
+            let bytes = drawing_jpeg(colour);
+            let whole = decode_gray(&bytes, &limits).unwrap();
+            assert_eq!((whole.width_px, whole.height_px), (540, 390));
+            // The header says 4000 × 4000 over the same data: a lenient decoder would
+            // return 16 MP, nearly all of it grey.
+            let mut lying = bytes.clone();
+            let at = sof_size_at(&lying);
+            lying[at..at + 2].copy_from_slice(&4000u16.to_be_bytes());
+            lying[at + 2..at + 4].copy_from_slice(&4000u16.to_be_bytes());
+            match decode_gray(&lying, &limits) {
+                Err(EngineError::ImageDecode(m)) => {
+                    assert!(m.contains("4000 × 4000"), "{m}")
+                }
+                other => panic!("colour {colour}: {:?}", other.map(|g| g.width_px)),
+            }
+            // A header smaller than its data is not refused (the rest is ignored).
+            let mut smaller = bytes.clone();
+            smaller[at..at + 2].copy_from_slice(&200u16.to_be_bytes());
+            assert_eq!(decode_gray(&smaller, &limits).unwrap().height_px, 200);
         }
     }
 

@@ -8,6 +8,7 @@
 pub mod font;
 pub mod hough;
 pub mod ingest;
+pub mod jpeg_check;
 pub mod merge;
 pub mod overlay;
 pub mod raycast;
