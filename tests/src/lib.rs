@@ -13,6 +13,7 @@ pub mod relations;
 pub mod run;
 pub mod run_loop;
 pub mod run_method;
+pub mod service_histogram;
 pub mod service_process;
 pub mod session_request;
 pub mod sketch_truth;

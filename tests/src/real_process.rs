@@ -16,6 +16,7 @@ use crate::run_loop::{
     RunFigures, SKETCH_IN_MAP_FILE, SKETCH_OVERLAY_FILE, served_drawing_poses, warp_held_share,
     write_warp_trajectory,
 };
+use crate::service_histogram::ServiceHistogram;
 use crate::service_process::{ServiceOptions, ServiceProcess};
 use crate::session_request::{baseline_session, sketch_session};
 use crate::sketch_truth::{fill_sketch_pose_scores, score_published_poses};
@@ -143,6 +144,12 @@ pub struct ProcessRun {
     /// `sketch` sessions: each scan's pose on the drawing as the event stream first
     /// published it (through the warp the session held then), stamp in seconds.
     pub live_sketch_poses: Vec<(f64, SketchPose)>,
+    /// The service's time per scan (its `/metrics` histogram, read once every scan was
+    /// processed), seconds; `None` when it had none.
+    pub processing: Option<ServiceHistogram>,
+    /// The stream's span in sensor time: last minus first stamp of the session's
+    /// trajectory, seconds.
+    pub stream_span_s: f64,
 }
 
 impl ProcessRun {
@@ -155,6 +162,12 @@ impl ProcessRun {
         sketch: Option<&SketchConfig>,
     ) {
         self.figures.fill(result, name, method, sketch);
+        if let Some(h) = &self.processing {
+            result.scan_ms_mean = h.mean().map(|s| s * 1e3);
+            result.scan_ms_p99 = h.quantile(0.99).map(|s| s * 1e3);
+            // As in-process: the stream's duration over the engine's time.
+            result.realtime_factor = (h.sum > 0.0).then(|| self.stream_span_s / h.sum);
+        }
     }
 }
 
@@ -273,6 +286,9 @@ pub fn map_through_processes(
         }
     }
     let wall_s = started.elapsed().as_secs_f64();
+    // One session per service: the service's histogram is this session's.
+    let metrics = runtime.block_on(client.metrics())?;
+    let processing = ServiceHistogram::parse(&metrics, "sketchslam_scan_processing_seconds");
     let stopped = runtime.block_on(client.stop_session(&session.id))?;
     // The stopped session's last pose: on the drawing through the final map's warp.
     let pose = runtime.block_on(client.pose(&session.id))?;
@@ -310,6 +326,11 @@ pub fn map_through_processes(
         runtime.block_on(client.trajectory_csv(&session.id))?,
     )?;
     service.guard.terminate(Duration::from_secs(10));
+    let trajectory = read_trajectory_csv(&out_dir.join("trajectory.csv"))?;
+    let stream_span_s = match (trajectory.first(), trajectory.last()) {
+        (Some(first), Some(last)) => last.t_s - first.t_s,
+        _ => 0.0,
+    };
     Ok(ProcessRun {
         figures: RunFigures {
             scans: stopped.scans_processed,
@@ -323,6 +344,8 @@ pub fn map_through_processes(
         published_sketch_poses,
         warp_poses,
         live_sketch_poses,
+        processing,
+        stream_span_s,
     })
 }
 

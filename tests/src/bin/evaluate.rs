@@ -552,4 +552,12 @@ fn print_table(results: &[RunResult]) {
              the drawing as the event stream first published it, through the warp held then"
         );
     }
+    if results.iter().any(|r| r.scan_ms_mean.is_some()) {
+        println!(
+            "ms/scan, p99 ms: engine time per scan (in-process: timed around the mapper; \
+             through the processes: the service's sketchslam_scan_processing_seconds histogram, \
+             the p99 interpolated in its bucket as Prometheus' histogram_quantile does); \
+             RTF: the stream's duration over the summed engine time"
+        );
+    }
 }
