@@ -64,14 +64,25 @@ impl Histogram {
     }
 }
 
+/// What `/metrics` reports of one running session.
+#[derive(Debug, Clone)]
+pub struct RunningSession {
+    /// Its status.
+    pub info: SessionInfo,
+    /// Odometry readings lost.
+    pub odometry_lost: u64,
+    /// Heap held by its mapper's growing parts ([`sketchslam_engine::mapper::Mapper::heap_bytes`]).
+    pub heap_bytes: u64,
+}
+
 /// The `/metrics` text (Prometheus exposition format): one series per running session and
-/// family (`running` holds each running session's status and its odometry readings lost),
+/// family (`running`),
 /// sessions by state (`states`: every session the service holds), stored sketches, the
 /// scan processing histogram and the process's own use. Labels are escaped; their values
 /// come from session ids, robot ids and method names only, and a stopped session's series
 /// go with it, so the series are bounded by the sessions running at once.
 pub fn render_metrics(
-    running: &[(SessionInfo, u64)],
+    running: &[RunningSession],
     states: &[SessionState],
     sketches: usize,
     histogram: &Histogram,
@@ -87,57 +98,59 @@ pub fn render_metrics(
         )
     };
     let mut family =
-        |name: &str, kind: &str, help: &str, value: &dyn Fn(&SessionInfo, u64) -> String| {
+        |name: &str, kind: &str, help: &str, value: &dyn Fn(&RunningSession) -> String| {
             out.push_str(&format!("# HELP {name} {help}\n# TYPE {name} {kind}\n"));
-            for (info, odo) in running {
-                out.push_str(&format!(
-                    "{name}{{{}}} {}\n",
-                    labels(info),
-                    value(info, *odo)
-                ));
+            for r in running {
+                out.push_str(&format!("{name}{{{}}} {}\n", labels(&r.info), value(r)));
             }
         };
     family(
         "sketchslam_scans_processed_total",
         "counter",
         "Scans fused into the session's map.",
-        &|i, _| i.scans_processed.to_string(),
+        &|r| r.info.scans_processed.to_string(),
     );
     family(
         "sketchslam_scans_lost_total",
         "counter",
         "Scans missing from the robot's stream (sequence gaps).",
-        &|i, _| i.scans_lost.to_string(),
+        &|r| r.info.scans_lost.to_string(),
     );
     family(
         "sketchslam_odometry_lost_total",
         "counter",
         "Odometry readings missing from the robot's stream (running sessions).",
-        &|_, o| o.to_string(),
+        &|r| r.odometry_lost.to_string(),
     );
     family(
         "sketchslam_recoveries_total",
         "counter",
         "Recoveries of localization on the sketch.",
-        &|i, _| i.recoveries.to_string(),
+        &|r| r.info.recoveries.to_string(),
     );
     family(
         "sketchslam_loop_closures_total",
         "counter",
         "Loops closed by the back end (graph and sketch methods).",
-        &|i, _| i.loop_closures.to_string(),
+        &|r| r.info.loop_closures.to_string(),
     );
     family(
         "sketchslam_loop_closures_rejected_total",
         "counter",
         "Matched loops the back end refused (inconsistent with the odometry chain or the other loops).",
-        &|i, _| i.loop_closures_rejected.to_string(),
+        &|r| r.info.loop_closures_rejected.to_string(),
     );
     family(
         "sketchslam_localization_score",
         "gauge",
         "Localization score in [0, 1].",
-        &|i, _| i.localization_score.to_string(),
+        &|r| r.info.localization_score.to_string(),
+    );
+    family(
+        "sketchslam_session_heap_bytes",
+        "gauge",
+        "Heap held by what grows with the session: its scan log, trajectory, grid and keyframes (an estimate from capacities).",
+        &|r| r.heap_bytes.to_string(),
     );
     out.push_str(
         "# HELP sketchslam_sessions Sessions by state.\n# TYPE sketchslam_sessions gauge\n",

@@ -29,7 +29,7 @@ use super::codec::{
 };
 use super::config::RegistryConfig;
 use super::method::engine_method;
-use super::metrics::{Histogram, render_metrics};
+use super::metrics::{Histogram, RunningSession, render_metrics};
 use super::process_stats::ProcessStats;
 use super::registration_codec::{not_registered, registration_from_info, transform_response};
 use super::session::{Session, lock, now_unix_ms};
@@ -724,18 +724,24 @@ impl Backend for Registry {
     }
 
     fn metrics_text(&self) -> String {
-        let mut running: Vec<(SessionInfo, u64)> = Vec::new();
+        let mut live = Vec::new();
         let mut states = Vec::new();
         for entry in lock(&self.sessions).entries.values() {
             match entry {
-                Entry::Live(s) => {
-                    let info = s.info();
-                    states.push(info.state);
-                    running.push((info, s.odometry_lost()));
-                }
+                Entry::Live(s) => live.push(s.clone()),
                 Entry::Stopped(m) => states.push(m.info.state),
             }
         }
+        // Outside the registry's lock: each waits for its mapper between two messages.
+        let running: Vec<RunningSession> = live
+            .iter()
+            .map(|s| RunningSession {
+                info: s.info(),
+                odometry_lost: s.odometry_lost(),
+                heap_bytes: s.heap_bytes() as u64,
+            })
+            .collect();
+        states.extend(running.iter().map(|r| r.info.state));
         let sketches = lock(&self.sketches).len();
         render_metrics(
             &running,

@@ -205,6 +205,12 @@ impl Session {
         lock(&self.shared.info).clone()
     }
 
+    /// Heap held by the mapper's growing parts ([`Mapper::heap_bytes`]); O(scans) under
+    /// the mapper's lock.
+    pub fn heap_bytes(&self) -> usize {
+        lock(&self.mapper).heap_bytes()
+    }
+
     /// Odometry readings lost so far.
     pub fn odometry_lost(&self) -> u64 {
         *lock(&self.shared.odometry_lost)

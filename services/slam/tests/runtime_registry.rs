@@ -477,6 +477,17 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
         metrics.contains("sketchslam_scan_processing_seconds_count 30"),
         "{metrics}"
     );
+    // The session's heap: at least its grid, far below 50 MB after 30 scans.
+    let heap: u64 = metrics
+        .lines()
+        .find_map(|l| {
+            l.strip_prefix(&format!(
+                "sketchslam_session_heap_bytes{{session=\"{id}\",robot=\"bot\",method=\"icp\"}} "
+            ))
+        })
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no heap gauge: {metrics}"));
+    assert!(heap > 1000 && heap < 50 << 20, "{heap} bytes");
 
     let stopped = reg.stop_session(&id).unwrap();
     assert_eq!(stopped.state, SessionState::Stopped);

@@ -276,6 +276,21 @@ struct MatchedLoop {
 }
 
 impl LoopCloser {
+    /// Bytes on the heap: keyframe points, route lengths, loops and the pose graph
+    /// (capacities). O(keyframes).
+    pub fn heap_bytes(&self) -> usize {
+        fn vec_bytes<T>(v: &Vec<T>) -> usize {
+            v.capacity() * std::mem::size_of::<T>()
+        }
+        self.points.iter().map(vec_bytes).sum::<usize>()
+            + vec_bytes(&self.points)
+            + vec_bytes(&self.travel_m)
+            + vec_bytes(&self.closures)
+            + vec_bytes(&self.loops)
+            + vec_bytes(&self.pending)
+            + self.graph.heap_bytes()
+    }
+
     /// An empty back end.
     pub fn new(config: LoopClosureConfig) -> Self {
         Self {

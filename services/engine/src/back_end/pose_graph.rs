@@ -164,6 +164,12 @@ fn dot(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> f64 {
 }
 
 impl PoseGraph {
+    /// Bytes on the heap of its nodes and edges (capacities).
+    pub fn heap_bytes(&self) -> usize {
+        self.nodes.capacity() * std::mem::size_of::<Pose2>()
+            + self.edges.capacity() * std::mem::size_of::<Edge>()
+    }
+
     /// An empty graph.
     pub fn new() -> Self {
         Self::default()

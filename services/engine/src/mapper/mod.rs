@@ -500,6 +500,33 @@ impl Mapper {
         self.warp_problem()?.solve()
     }
 
+    /// Bytes on the heap held by what grows with the session: the scan log (every fused
+    /// scan, kept for the grid's rebuild), the trajectory and its per-point records, the
+    /// grid, and the loop closer's keyframe points and pose graph. An estimate from the
+    /// containers' capacities (the front end's reference scans and the drawing are fixed
+    /// in size and left out). O(scans).
+    pub fn heap_bytes(&self) -> usize {
+        use std::mem::size_of;
+        fn vec_bytes<T>(v: &Vec<T>) -> usize {
+            v.capacity() * size_of::<T>()
+        }
+        let scans: usize = self
+            .scan_log
+            .iter()
+            .map(|(_, scan)| vec_bytes(&scan.ranges_m))
+            .sum::<usize>()
+            + vec_bytes(&self.scan_log);
+        let trajectory = vec_bytes(&self.trajectory)
+            + vec_bytes(&self.drawing_trajectory)
+            + vec_bytes(&self.trajectory_anchors)
+            + vec_bytes(&self.trajectory_odometry)
+            + vec_bytes(&self.trajectory_scans);
+        let back_end = self.back_end.as_ref().map_or(0, |b| {
+            b.closer.heap_bytes() + vec_bytes(&b.keyframe_stamps_ns)
+        });
+        scans + trajectory + self.grid.heap_bytes() + back_end
+    }
+
     /// Keyframes in the pose graph (0 without loop closure). O(1).
     pub fn keyframe_count(&self) -> usize {
         self.back_end.as_ref().map_or(0, |b| b.closer.poses().len())
