@@ -16,7 +16,7 @@ use crate::run_loop::{
     RunFigures, SKETCH_IN_MAP_FILE, SKETCH_OVERLAY_FILE, served_drawing_poses, warp_held_share,
     write_warp_trajectory,
 };
-use crate::service_histogram::ServiceHistogram;
+use crate::service_histogram::{SCAN_PROCESSING, ServiceHistogram};
 use crate::service_process::{ServiceOptions, ServiceProcess};
 use crate::session_request::{baseline_session, sketch_session};
 use crate::sketch_truth::{fill_sketch_pose_scores, score_published_poses};
@@ -288,7 +288,7 @@ pub fn map_through_processes(
     let wall_s = started.elapsed().as_secs_f64();
     // One session per service: the service's histogram is this session's.
     let metrics = runtime.block_on(client.metrics())?;
-    let processing = ServiceHistogram::parse(&metrics, "sketchslam_scan_processing_seconds");
+    let processing = ServiceHistogram::parse(&metrics, SCAN_PROCESSING);
     let stopped = runtime.block_on(client.stop_session(&session.id))?;
     // The stopped session's last pose: on the drawing through the final map's warp.
     let pose = runtime.block_on(client.pose(&session.id))?;

@@ -5,6 +5,9 @@
 //! The mean is exact (`_sum / _count`); a quantile is interpolated linearly inside its
 //! bucket, as Prometheus' `histogram_quantile` does, so it is only as fine as the buckets.
 
+/// The service's time per scan, all sessions together.
+pub const SCAN_PROCESSING: &str = "sketchslam_scan_processing_seconds";
+
 /// One histogram's samples.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ServiceHistogram {

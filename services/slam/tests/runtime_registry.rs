@@ -57,6 +57,24 @@ fn sketch_a() -> Vec<u8> {
     std::fs::read(p).unwrap()
 }
 
+/// A `sketch` session for robot r1 on `sketch_id`, started at `(u, v)` px, heading 1.1°,
+/// 0.1 m/px.
+fn sketch_start(sketch_id: &str, u: f64, v: f64) -> CreateSessionRequest {
+    CreateSessionRequest {
+        robot_id: "r1".into(),
+        method: MappingMethod::Sketch,
+        sketch_id: Some(sketch_id.to_string()),
+        start: Some(SketchStart {
+            u,
+            v,
+            heading_deg: 1.1,
+        }),
+        meters_per_pixel: Some(0.1),
+        seed: None,
+        lidar_mount: None,
+    }
+}
+
 fn code(e: ApiError) -> &'static str {
     e.code()
 }
@@ -209,19 +227,7 @@ fn sketches_are_ingested_and_starts_validated() {
     );
     assert_eq!(reg.list_sketches().unwrap().len(), 1);
 
-    let request = |u: f64, v: f64| CreateSessionRequest {
-        robot_id: "r1".into(),
-        method: MappingMethod::Sketch,
-        sketch_id: Some(info.id.clone()),
-        start: Some(SketchStart {
-            u,
-            v,
-            heading_deg: 1.1,
-        }),
-        meters_per_pixel: Some(0.1),
-        seed: None,
-        lidar_mount: None,
-    };
+    let request = |u: f64, v: f64| sketch_start(&info.id, u, v);
     let outside = reg
         .create_session(request(info.width_px as f64 + 3.0, 10.0))
         .unwrap_err();
@@ -302,19 +308,7 @@ fn stored_sketches_open_without_decoding_their_images_and_are_capped() {
     let sketch = Sketch::from_image_bytes(&png).unwrap();
     let on_stroke = sketch.strokes.ones().next().unwrap();
     let w = sketch.width_px as usize;
-    let start = |u: f64, v: f64| CreateSessionRequest {
-        robot_id: "r1".into(),
-        method: MappingMethod::Sketch,
-        sketch_id: Some(first.id.clone()),
-        start: Some(SketchStart {
-            u,
-            v,
-            heading_deg: 1.1,
-        }),
-        meters_per_pixel: Some(0.1),
-        seed: None,
-        lidar_mount: None,
-    };
+    let start = |u: f64, v: f64| sketch_start(&first.id, u, v);
     let (u, v) = ((on_stroke % w) as f64 + 0.5, (on_stroke / w) as f64 + 0.5);
     assert_eq!(
         code(reg.create_session(start(u, v)).unwrap_err()),

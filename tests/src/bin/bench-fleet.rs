@@ -16,14 +16,14 @@ mod bench_common;
 
 use anyhow::{Result, bail};
 use bench_common::{
-    case_dir, cpu_seconds, create_session, discarded_in_log, histogram_quantile, paper_env1,
-    parse_method, processing_histogram, spawn_simulator, start_service, truth_rows, wait_all,
-    wait_settled,
+    case_dir, cpu_seconds, create_session, discarded_in_log, paper_env1, parse_method,
+    spawn_simulator, start_service, truth_rows, wait_all, wait_settled,
 };
 use clap::Parser;
 use serde_json::json;
 use sketchslam_api::MappingMethod;
 use sketchslam_tests::processes::{binary, unique_prefix};
+use sketchslam_tests::service_histogram::{SCAN_PROCESSING, ServiceHistogram};
 use std::time::{Duration, Instant};
 
 #[derive(Debug, Parser)]
@@ -140,9 +140,9 @@ async fn run_case(args: &Args, method: MappingMethod, k: usize) -> Result<serde_
     .await?;
     let wall = started.elapsed().as_secs_f64();
     let cpu = cpu_seconds(pid)? - cpu0;
-    let hist = processing_histogram(&client.metrics().await?);
-    let p50 = histogram_quantile(&hist, 0.5);
-    let p99 = histogram_quantile(&hist, 0.99);
+    let hist = ServiceHistogram::parse(&client.metrics().await?, SCAN_PROCESSING);
+    let p50 = hist.as_ref().and_then(|h| h.quantile(0.5));
+    let p99 = hist.as_ref().and_then(|h| h.quantile(0.99));
     service.guard.terminate(Duration::from_secs(10));
 
     let mut rows = Vec::new();

@@ -19,13 +19,13 @@ mod bench_common;
 
 use anyhow::{Context, Result, bail};
 use bench_common::{
-    case_dir, cpu_seconds, create_session, histogram_quantile, paper_env1, parse_method,
-    percentile, processing_histogram, spawn_simulator, start_service, truth_rows, wait_all,
-    wait_settled,
+    case_dir, cpu_seconds, create_session, paper_env1, parse_method, percentile, spawn_simulator,
+    start_service, truth_rows, wait_all, wait_settled,
 };
 use clap::Parser;
 use serde_json::{Value, json};
 use sketchslam_tests::processes::{binary, unique_prefix};
+use sketchslam_tests::service_histogram::{SCAN_PROCESSING, ServiceHistogram};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
@@ -210,7 +210,7 @@ async fn run_phase(args: &Args, with_load: bool) -> Result<Value> {
     .context("no session status")?;
     let wall = started.elapsed().as_secs_f64();
     let cpu = cpu_seconds(pid)? - cpu0;
-    let hist = processing_histogram(&client.metrics().await?);
+    let hist = ServiceHistogram::parse(&client.metrics().await?, SCAN_PROCESSING);
     service.guard.terminate(Duration::from_secs(10));
     let published = truth_rows(&truth)?;
     let mut out = json!({
@@ -220,8 +220,8 @@ async fn run_phase(args: &Args, with_load: bool) -> Result<Value> {
         "processed": info.scans_processed,
         "lost": info.scans_lost.max(published.saturating_sub(info.scans_processed)),
         "reported_lost": info.scans_lost,
-        "processing_p50_ms": histogram_quantile(&hist, 0.5).map(|s| s * 1e3),
-        "processing_p99_ms": histogram_quantile(&hist, 0.99).map(|s| s * 1e3),
+        "processing_p50_ms": hist.as_ref().and_then(|h| h.quantile(0.5)).map(|s| s * 1e3),
+        "processing_p99_ms": hist.as_ref().and_then(|h| h.quantile(0.99)).map(|s| s * 1e3),
         "service_cpu_s": cpu,
         "service_cores": cpu / wall,
         "wall_s": wall,

@@ -172,59 +172,6 @@ fn clock_ticks() -> u64 {
     if t > 0 { t as u64 } else { 100 }
 }
 
-/// The `sketchslam_scan_processing_seconds` histogram: (upper bound, cumulative count).
-pub fn processing_histogram(metrics: &str) -> Vec<(f64, u64)> {
-    let mut out = Vec::new();
-    for line in metrics.lines() {
-        let Some(rest) = line.strip_prefix("sketchslam_scan_processing_seconds_bucket{le=\"")
-        else {
-            continue;
-        };
-        let Some((le, count)) = rest.split_once("\"}") else {
-            continue;
-        };
-        let bound = if le == "+Inf" {
-            f64::INFINITY
-        } else {
-            match le.parse() {
-                Ok(b) => b,
-                Err(_) => continue,
-            }
-        };
-        if let Ok(n) = count.trim().parse() {
-            out.push((bound, n));
-        }
-    }
-    out
-}
-
-/// Quantile `q` of a cumulative histogram, interpolated linearly inside its bucket (the
-/// `histogram_quantile` of Prometheus); None when empty.
-pub fn histogram_quantile(buckets: &[(f64, u64)], q: f64) -> Option<f64> {
-    let total = buckets.last()?.1;
-    if total == 0 {
-        return None;
-    }
-    let rank = q * total as f64;
-    let (mut lo_bound, mut lo_count) = (0.0, 0u64);
-    for &(bound, count) in buckets {
-        if count as f64 >= rank {
-            if bound.is_infinite() {
-                return Some(lo_bound);
-            }
-            let in_bucket = (count - lo_count) as f64;
-            let frac = if in_bucket > 0.0 {
-                (rank - lo_count as f64) / in_bucket
-            } else {
-                0.0
-            };
-            return Some(lo_bound + (bound - lo_bound) * frac);
-        }
-        (lo_bound, lo_count) = (bound, count);
-    }
-    Some(lo_bound)
-}
-
 /// Percentile `p` (0..1) of sorted values.
 pub fn percentile(sorted: &[f64], p: f64) -> f64 {
     if sorted.is_empty() {
