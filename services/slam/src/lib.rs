@@ -175,8 +175,8 @@ pub async fn serve(
     Ok(())
 }
 
-/// Runs `job` on the blocking pool every `period` (the first after one period) for as
-/// long as the registry lives.
+/// Runs `job` on the blocking pool every `period` (the first after one period, and never two
+/// at once) for as long as the registry lives.
 fn every(
     period: std::time::Duration,
     registry: &Arc<Registry>,
@@ -185,6 +185,8 @@ fn every(
     let watched = Arc::downgrade(registry);
     tokio::spawn(async move {
         let mut tick = tokio::time::interval(period);
+        // A job that overran its period is not run again at once to catch up.
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
         tick.tick().await; // the first tick is immediate
         loop {
             tick.tick().await;
