@@ -69,7 +69,9 @@ fn walk<'a>(bytes: &'a [u8], mut visit: impl FnMut(Segment<'a>)) -> bool {
                             _ => data += 1,
                         }
                     }
-                    visit(Segment::ScanData(data.min(bytes.len()) - i - skipped));
+                    // A header running past the end leaves no data (`data` is then `i`).
+                    let span = data.min(bytes.len()).saturating_sub(i);
+                    visit(Segment::ScanData(span.saturating_sub(skipped)));
                     i = data;
                 }
             }
@@ -310,6 +312,25 @@ pub(crate) mod tests {
             let mut smaller = bytes.clone();
             smaller[at..at + 2].copy_from_slice(&200u16.to_be_bytes());
             assert!(jpeg_data_can_fill_header(&smaller));
+        }
+    }
+
+    #[test]
+    fn every_prefix_and_damaged_copy_is_walked_without_a_panic() {
+        // Cut at every length, and each byte in turn set to FF (a marker where data were)
+        // or 00: the checks answer, they never index out of the file or underflow.
+        let bytes = drawing_jpeg(true);
+        for keep in 0..bytes.len() {
+            let _ = jpeg_is_complete(&bytes[..keep]);
+            let _ = jpeg_data_can_fill_header(&bytes[..keep]);
+        }
+        for at in (0..bytes.len()).step_by(7) {
+            for value in [0xFF, 0x00] {
+                let mut damaged = bytes.clone();
+                damaged[at] = value;
+                let _ = jpeg_is_complete(&damaged);
+                let _ = jpeg_data_can_fill_header(&damaged);
+            }
         }
     }
 
