@@ -26,6 +26,7 @@ pub mod process_stats;
 pub mod registration_codec;
 pub mod registry;
 pub mod session;
+pub mod sketch_store;
 pub mod storage;
 pub mod vda5050;
 pub mod warp_cache;

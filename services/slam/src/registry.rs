@@ -2,16 +2,12 @@
 //! [`Backend`].
 //!
 //! Locks are held only to look entries up or swap them; decoding sketches, starting and
-//! stopping sessions and rendering maps happen outside them.
-//!
-//! A stored drawing is kept as its listing (size and lines) only; its stroke mask is read
-//! from the data dir when a session starts on it or its picture is drawn, and held while
-//! anything uses it ([`StoredSketch::sketch`]). Opening a data dir of many drawings reads
-//! small files and decodes no image, so the service answers at once.
+//! stopping sessions and rendering maps happen outside them. The drawings themselves are
+//! the [`SketchStore`]'s.
 
 use std::collections::{BTreeMap, HashSet};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex, Weak};
+use std::sync::{Arc, Mutex};
 
 use axum::body::Bytes;
 use sketchslam_api::{
@@ -23,61 +19,20 @@ use sketchslam_api::{
 use sketchslam_ipc::IpcConfig;
 
 use super::RuntimeError;
-use super::codec::{
-    image_error, no_drawing, occupancy_response, sketch_info, stored_occupancy,
-    stored_trajectory_response,
-};
+use super::codec::{no_drawing, occupancy_response, stored_occupancy, stored_trajectory_response};
 use super::config::RegistryConfig;
 use super::method::engine_method;
 use super::metrics::{Histogram, RunningSession, render_metrics};
 use super::process_stats::ProcessStats;
 use super::registration_codec::{not_registered, registration_from_info, transform_response};
 use super::session::{Session, lock, now_unix_ms};
-use super::storage::{SessionMeta, SketchMeta, SketchShape, Storage};
+use super::sketch_store::SketchStore;
+use super::storage::{SessionMeta, Storage};
 use super::vda5050::StartedSession;
 use sketchslam_engine::EngineError;
 use sketchslam_engine::mapper::{Mapper, SketchPrior};
-use sketchslam_engine::sketch::overlay::{encode_png, render_overlay};
-use sketchslam_engine::sketch::{Sketch, SketchPose};
+use sketchslam_engine::sketch::SketchPose;
 use tokio::sync::mpsc;
-
-/// A stored sketch: its listing, and its processed drawing while something uses it.
-struct StoredSketch {
-    info: SketchInfo,
-    shape: SketchShape,
-    /// The drawing with its stroke mask, alive while a session or a request holds it.
-    loaded: Mutex<Weak<Sketch>>,
-}
-
-impl StoredSketch {
-    fn new(meta: &SketchMeta, shape: SketchShape, loaded: Weak<Sketch>) -> Self {
-        Self {
-            info: sketch_info(meta, &shape),
-            shape,
-            loaded: Mutex::new(loaded),
-        }
-    }
-
-    /// The processed drawing: the one in use, or read back from `storage` (its lines as
-    /// listed, its mask from `strokes.bin`).
-    fn sketch(&self, storage: &Storage) -> Result<Arc<Sketch>, ApiError> {
-        let mut loaded = lock(&self.loaded);
-        if let Some(sketch) = loaded.upgrade() {
-            return Ok(sketch);
-        }
-        let strokes = storage
-            .read_strokes(&self.info.id, &self.shape)
-            .map_err(|e| ApiError::internal(format!("reading sketch {}: {e}", self.info.id)))?;
-        let sketch = Arc::new(Sketch {
-            width_px: self.shape.width_px,
-            height_px: self.shape.height_px,
-            strokes,
-            lines: self.shape.lines.clone(),
-        });
-        *loaded = Arc::downgrade(&sketch);
-        Ok(sketch)
-    }
-}
 
 enum Entry {
     Live(Arc<Session>),
@@ -106,7 +61,7 @@ pub struct Registry {
     ipc: IpcConfig,
     storage: Storage,
     histogram: Arc<Histogram>,
-    sketches: Mutex<BTreeMap<String, Arc<StoredSketch>>>,
+    sketches: SketchStore,
     sessions: Mutex<Sessions>,
     closing: AtomicBool,
     /// Told of every session started (the VDA 5050 bridges); dropped at shutdown.
@@ -127,21 +82,7 @@ impl Registry {
             path: config.data_dir.clone(),
             source: e,
         };
-        let mut sketches = BTreeMap::new();
-        for (meta, shape) in storage.load_sketches().map_err(data_dir_err)? {
-            let shape = match shape {
-                Some(shape) => shape,
-                None => match processed_again(&storage, &meta) {
-                    Ok(shape) => shape,
-                    Err(e) => {
-                        tracing::warn!(id = %meta.id, error = %e, "skipping stored sketch");
-                        continue;
-                    }
-                },
-            };
-            let stored = StoredSketch::new(&meta, shape, Weak::new());
-            sketches.insert(meta.id.clone(), Arc::new(stored));
-        }
+        let sketches = SketchStore::open(&storage, config.max_sketches).map_err(data_dir_err)?;
         let mut sessions = Sessions::default();
         for mut meta in storage.load_sessions().map_err(data_dir_err)? {
             if matches!(
@@ -176,40 +117,11 @@ impl Registry {
             ipc,
             storage,
             histogram: Arc::new(Histogram::default()),
-            sketches: Mutex::new(sketches),
+            sketches,
             sessions: Mutex::new(sessions),
             closing: AtomicBool::new(false),
             observer: Mutex::new(None),
         })
-    }
-
-    fn sketch(&self, id: &str) -> Result<Arc<StoredSketch>, ApiError> {
-        lock(&self.sketches)
-            .get(id)
-            .cloned()
-            .ok_or_else(|| ApiError::sketch_not_found(id))
-    }
-
-    /// `too_many_sketches` when the data dir holds `max_sketches` already.
-    fn room_for_a_sketch(&self) -> Result<(), ApiError> {
-        self.room_for_a_sketch_in(&lock(&self.sketches))
-    }
-
-    fn room_for_a_sketch_in(
-        &self,
-        sketches: &BTreeMap<String, Arc<StoredSketch>>,
-    ) -> Result<(), ApiError> {
-        if sketches.len() >= self.config.max_sketches {
-            return Err(ApiError::conflict(
-                "too_many_sketches",
-                format!(
-                    "{} sketches are stored, the limit is {}; delete one first",
-                    sketches.len(),
-                    self.config.max_sketches
-                ),
-            ));
-        }
-        Ok(())
     }
 
     fn live(&self, id: &str) -> Result<Result<Arc<Session>, Box<SessionMeta>>, ApiError> {
@@ -364,11 +276,10 @@ impl Registry {
         let prior = match request.method {
             MappingMethod::Sketch => {
                 let sketch_id = request.sketch_id.as_deref().unwrap_or_default();
-                let stored = self.sketch(sketch_id)?;
+                let sketch = self.sketches.sketch(sketch_id)?;
                 let start = request
                     .start
                     .ok_or_else(|| ApiError::invalid("missing_field", "start: required"))?;
-                let sketch = stored.sketch(&self.storage)?;
                 if !sketch.contains(start.u, start.v) {
                     return Err(ApiError::invalid(
                         "invalid_start",
@@ -441,55 +352,23 @@ impl Registry {
 
 impl Backend for Registry {
     fn create_sketch(&self, name: Option<String>, image: Bytes) -> Result<SketchInfo, ApiError> {
-        self.room_for_a_sketch()?;
-        let sketch = Arc::new(Sketch::from_image_bytes(&image).map_err(image_error)?);
-        let meta = SketchMeta {
-            id: uuid::Uuid::new_v4().to_string(),
-            name,
-            created_unix_ms: now_unix_ms(),
-        };
-        let mut sketches = lock(&self.sketches);
-        // Again under the lock: uploads decode in parallel.
-        self.room_for_a_sketch_in(&sketches)?;
-        self.storage
-            .save_sketch(&meta, &image, &sketch)
-            .map_err(|e| ApiError::internal(format!("storing sketch {}: {e}", meta.id)))?;
-        let stored = StoredSketch::new(&meta, SketchShape::of(&sketch), Arc::downgrade(&sketch));
-        let info = stored.info.clone();
-        sketches.insert(meta.id.clone(), Arc::new(stored));
-        drop(sketches);
-        tracing::info!(id = %meta.id, lines = info.lines.len(), "sketch stored");
-        Ok(info)
+        self.sketches.create(name, &image)
     }
 
     fn list_sketches(&self) -> Result<Vec<SketchSummary>, ApiError> {
-        let mut list: Vec<SketchSummary> = lock(&self.sketches)
-            .values()
-            .map(|s| s.info.summary())
-            .collect();
-        list.sort_by(|a, b| (a.created_unix_ms, &a.id).cmp(&(b.created_unix_ms, &b.id)));
-        Ok(list)
+        Ok(self.sketches.list())
     }
 
     fn get_sketch(&self, id: &str) -> Result<SketchInfo, ApiError> {
-        Ok(self.sketch(id)?.info.clone())
+        self.sketches.info(id)
     }
 
     fn sketch_overlay_png(&self, id: &str) -> Result<Vec<u8>, ApiError> {
-        let sketch = self.sketch(id)?.sketch(&self.storage)?;
-        Ok(encode_png(&render_overlay(&sketch)))
+        self.sketches.overlay_png(id)
     }
 
     fn delete_sketch(&self, id: &str) -> Result<(), ApiError> {
-        let removed = lock(&self.sketches).remove(id);
-        if removed.is_none() {
-            return Err(ApiError::sketch_not_found(id));
-        }
-        self.storage
-            .delete_sketch(id)
-            .map_err(|e| ApiError::internal(format!("deleting sketch {id}: {e}")))?;
-        tracing::info!(%id, "sketch deleted");
-        Ok(())
+        self.sketches.delete(id)
     }
 
     fn create_session(&self, request: CreateSessionRequest) -> Result<SessionInfo, ApiError> {
@@ -498,7 +377,8 @@ impl Backend for Registry {
         }
         // Cheap checks first, so a bad request never touches the robot's services.
         if request.method == MappingMethod::Sketch {
-            self.sketch(request.sketch_id.as_deref().unwrap_or_default())?;
+            self.sketches
+                .info(request.sketch_id.as_deref().unwrap_or_default())?;
         }
         {
             let mut sessions = lock(&self.sessions);
@@ -742,7 +622,7 @@ impl Backend for Registry {
             })
             .collect();
         states.extend(running.iter().map(|r| r.info.state));
-        let sketches = lock(&self.sketches).len();
+        let sketches = self.sketches.len();
         render_metrics(
             &running,
             &states,
@@ -751,18 +631,4 @@ impl Backend for Registry {
             &ProcessStats::read(),
         )
     }
-}
-
-/// A sketch stored before `sketch.json` and `strokes.bin` existed: its image decoded once
-/// more and the two files added, so the next start reads them instead.
-fn processed_again(storage: &Storage, meta: &SketchMeta) -> Result<SketchShape, String> {
-    let image = storage
-        .read_sketch_image(&meta.id)
-        .map_err(|e| e.to_string())?;
-    let sketch = Sketch::from_image_bytes(&image).map_err(|e| e.to_string())?;
-    storage
-        .save_processed_sketch(&meta.id, &sketch)
-        .map_err(|e| e.to_string())?;
-    tracing::info!(id = %meta.id, "stored sketch processed again and its lines kept");
-    Ok(SketchShape::of(&sketch))
 }
