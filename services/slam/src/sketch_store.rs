@@ -3,7 +3,7 @@
 //!
 //! A drawing is kept as its listing (size and lines extracted at upload) only; its mask is
 //! read from `strokes.bin` when a session starts on it or its picture is drawn, and held
-//! while anything uses it ([`StoredSketch::sketch`]). Opening a data dir of many drawings
+//! while anything uses it (a `Weak`). Opening a data dir of many drawings
 //! reads small files and decodes no image, so the service answers at once. At most
 //! `max_sketches` are stored.
 
@@ -65,7 +65,7 @@ pub struct SketchStore {
 
 impl SketchStore {
     /// Lists the drawings `storage` holds; those stored before `sketch.json` existed are
-    /// processed once more ([`processed_again`]), and an unreadable one is skipped with a
+    /// processed once more (`processed_again`), and an unreadable one is skipped with a
     /// warning.
     pub fn open(storage: &Storage, max_sketches: usize) -> std::io::Result<Self> {
         let mut sketches = BTreeMap::new();
