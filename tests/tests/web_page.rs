@@ -422,6 +422,9 @@ async fn drive(c: &Client, base: &str, prefix: &str, shots: &Path) -> Result<()>
     )
     .await?;
     full_page_screenshot(c, &shots.join("2-during.png"), 1280).await?;
+    // The session was written to disk at its start: the health panel says when.
+    let saved = live_saved(c).await?;
+    ensure!(saved.starts_with("checkpoint at "), "saved: {saved:?}");
 
     let status = tokio::task::spawn_blocking(move || {
         let s = sim.wait_timeout(Duration::from_secs(180));
@@ -486,5 +489,18 @@ async fn drive(c: &Client, base: &str, prefix: &str, shots: &Path) -> Result<()>
         "the session to stop",
     )
     .await?;
+    let saved = live_saved(c).await?;
+    ensure!(saved.starts_with("stored at its stop"), "saved: {saved:?}");
     Ok(())
+}
+
+/// The health panel's "Saved to disk".
+async fn live_saved(c: &Client) -> Result<String> {
+    let v = c
+        .execute(
+            "return document.getElementById('h-saved').textContent",
+            vec![],
+        )
+        .await?;
+    Ok(v.as_str().unwrap_or_default().to_string())
 }

@@ -105,6 +105,13 @@ export class LiveView {
     $('h-scale').textContent = fmt(s.estimated_meters_per_pixel, 4);
     $('h-recoveries').textContent = String(s.recoveries);
     $('h-loops').textContent = String(s.loop_closures);
+    // A running session is checkpointed; a stopped one is stored; an interrupted one is
+    // what its last checkpoint kept when the service ended.
+    const at = (ms) => new Date(ms).toLocaleTimeString();
+    $('h-saved').textContent = s.state === 'interrupted'
+      ? `its last checkpoint${s.checkpoint_unix_ms ? `, ${at(s.checkpoint_unix_ms)}` : ''}: the service ended while it ran`
+      : s.stopped_unix_ms ? `stored at its stop, ${at(s.stopped_unix_ms)}`
+      : s.checkpoint_unix_ms ? `checkpoint at ${at(s.checkpoint_unix_ms)}` : 'not yet';
     if (s.last_error) $('live-error').textContent = s.last_error;
   }
 
