@@ -185,6 +185,7 @@ pub fn score_dataset_artifacts(
         scan_ms_mean: None,
         scan_ms_p99: None,
         realtime_factor: None,
+        session_heap_mb: None,
         sketch_pose_median_m: None,
         warp_pose_median_m: None,
         warp_pose_p95_m: None,

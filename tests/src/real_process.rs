@@ -150,6 +150,8 @@ pub struct ProcessRun {
     /// The stream's span in sensor time: last minus first stamp of the session's
     /// trajectory, seconds.
     pub stream_span_s: f64,
+    /// The session's `sketchslam_session_heap_bytes` once every scan was processed.
+    pub heap_bytes: Option<u64>,
 }
 
 impl ProcessRun {
@@ -168,6 +170,7 @@ impl ProcessRun {
             // As in-process: the stream's duration over the engine's time.
             result.realtime_factor = (h.sum > 0.0).then(|| self.stream_span_s / h.sum);
         }
+        result.session_heap_mb = self.heap_bytes.map(|b| b as f64 / 1e6);
     }
 }
 
@@ -289,6 +292,11 @@ pub fn map_through_processes(
     // One session per service: the service's histogram is this session's.
     let metrics = runtime.block_on(client.metrics())?;
     let processing = ServiceHistogram::parse(&metrics, SCAN_PROCESSING);
+    let heap_bytes = metrics
+        .lines()
+        .filter(|l| l.starts_with("sketchslam_session_heap_bytes{"))
+        .find(|l| l.contains(&format!("session=\"{}\"", session.id)))
+        .and_then(|l| l.rsplit_once(' ')?.1.parse().ok());
     let stopped = runtime.block_on(client.stop_session(&session.id))?;
     // The stopped session's last pose: on the drawing through the final map's warp.
     let pose = runtime.block_on(client.pose(&session.id))?;
@@ -346,6 +354,7 @@ pub fn map_through_processes(
         live_sketch_poses,
         processing,
         stream_span_s,
+        heap_bytes,
     })
 }
 

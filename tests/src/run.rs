@@ -89,6 +89,11 @@ pub struct RunResult {
     /// Simulated seconds mapped per second of engine time on one core (in-process runs).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub realtime_factor: Option<f64>,
+    /// Heap held by what grows with the session at its end (the mapper's scan log,
+    /// trajectory, grid and keyframes: `Mapper::heap_bytes`, through the processes the
+    /// service's `sketchslam_session_heap_bytes`), megabytes (10⁶ bytes).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub session_heap_mb: Option<f64>,
     /// ATE of the live trajectory (`online-trajectory.csv`: each scan's pose as the session
     /// first published it, before later loop closures rewrote it), moved by the alignment of
     /// the final trajectory, meters.
@@ -320,6 +325,7 @@ pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
         scan_ms_mean: None,
         scan_ms_p99: None,
         realtime_factor: None,
+        session_heap_mb: None,
         sketch_pose_median_m: None,
         sketch_pose_p95_m: None,
         sketch_pose_within_1m: None,

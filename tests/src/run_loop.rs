@@ -265,6 +265,7 @@ impl InProcessRun {
         if let (Some(first), Some(last)) = (self.truth.first(), self.truth.last()) {
             result.realtime_factor = Some((last.t_s - first.t_s) / self.mapping_s.max(1e-9));
         }
+        result.session_heap_mb = Some(self.mapper.heap_bytes() as f64 / 1e6);
     }
 }
 

@@ -471,7 +471,7 @@ fn print_relations(results: &[RunResult]) {
 
 fn print_table(results: &[RunResult]) {
     println!(
-        "{:<12} {:<9} {:<8} {:>7} {:>8} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5} {:>6} {:>8} {:>7}",
+        "{:<12} {:<9} {:<8} {:>7} {:>8} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>7} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5} {:>6} {:>8} {:>7}",
         "scenario",
         "method",
         "sketch",
@@ -485,6 +485,7 @@ fn print_table(results: &[RunResult]) {
         "ms/scan",
         "p99 ms",
         "RTF",
+        "heap MB",
         "rec.",
         "loops",
         "rej.",
@@ -499,7 +500,7 @@ fn print_table(results: &[RunResult]) {
     let opt = |v: Option<f64>, prec: usize| v.map_or("-".to_string(), |v| format!("{v:.prec$}"));
     for r in results {
         println!(
-            "{:<12} {:<9} {:<8} {} {:>8} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5} {:>6} {:>8} {:>7}",
+            "{:<12} {:<9} {:<8} {} {:>8} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>7} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5} {:>6} {:>8} {:>7}",
             r.scenario,
             r.method,
             r.sketch.as_deref().unwrap_or("-"),
@@ -513,6 +514,7 @@ fn print_table(results: &[RunResult]) {
             opt(r.scan_ms_mean, 2),
             opt(r.scan_ms_p99, 2),
             opt(r.realtime_factor, 1),
+            opt(r.session_heap_mb, 1),
             r.recoveries,
             r.loop_closures,
             r.loop_closures_rejected,
@@ -557,7 +559,8 @@ fn print_table(results: &[RunResult]) {
             "ms/scan, p99 ms: engine time per scan (in-process: timed around the mapper; \
              through the processes: the service's sketchslam_scan_processing_seconds histogram, \
              the p99 interpolated in its bucket as Prometheus' histogram_quantile does); \
-             RTF: the stream's duration over the summed engine time"
+             RTF: the stream's duration over the summed engine time; heap MB: what grows with \
+             the session (scan log, trajectory, grid, keyframes) at its end, 10⁶ bytes"
         );
     }
 }
