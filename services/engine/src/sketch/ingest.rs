@@ -146,8 +146,6 @@ fn check_dimensions(w: u32, h: u32, limits: &SketchLimits) -> Result<(), EngineE
     Ok(())
 }
 
-/// True when a JPEG's image data is followed by its end-of-image marker (`FF D9`).
-///
 fn map_image_error(err: ImageError) -> EngineError {
     match err {
         ImageError::Limits(e) => EngineError::ImageTooLarge(e.to_string()),
