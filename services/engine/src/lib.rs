@@ -21,6 +21,7 @@
 
 pub mod back_end;
 pub mod error;
+mod heap;
 pub mod lines;
 pub mod localization;
 pub mod mapper;

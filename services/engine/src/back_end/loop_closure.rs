@@ -279,9 +279,7 @@ impl LoopCloser {
     /// Bytes on the heap: keyframe points, route lengths, loops and the pose graph
     /// (capacities). O(keyframes).
     pub fn heap_bytes(&self) -> usize {
-        fn vec_bytes<T>(v: &Vec<T>) -> usize {
-            v.capacity() * std::mem::size_of::<T>()
-        }
+        use crate::heap::vec_bytes;
         self.points.iter().map(vec_bytes).sum::<usize>()
             + vec_bytes(&self.points)
             + vec_bytes(&self.travel_m)

@@ -166,8 +166,7 @@ fn dot(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> f64 {
 impl PoseGraph {
     /// Bytes on the heap of its nodes and edges (capacities).
     pub fn heap_bytes(&self) -> usize {
-        self.nodes.capacity() * std::mem::size_of::<Pose2>()
-            + self.edges.capacity() * std::mem::size_of::<Edge>()
+        crate::heap::vec_bytes(&self.nodes) + crate::heap::vec_bytes(&self.edges)
     }
 
     /// An empty graph.

@@ -506,10 +506,7 @@ impl Mapper {
     /// containers' capacities (the front end's reference scans and the drawing are fixed
     /// in size and left out). O(scans).
     pub fn heap_bytes(&self) -> usize {
-        use std::mem::size_of;
-        fn vec_bytes<T>(v: &Vec<T>) -> usize {
-            v.capacity() * size_of::<T>()
-        }
+        use crate::heap::vec_bytes;
         let scans: usize = self
             .scan_log
             .iter()

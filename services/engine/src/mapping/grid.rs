@@ -151,8 +151,7 @@ pub fn log_odds_to_probability(l: f64) -> f64 {
 impl OccupancyGrid {
     /// Bytes on the heap of its cells and marks (capacities).
     pub fn heap_bytes(&self) -> usize {
-        self.cells.capacity() * std::mem::size_of::<f32>()
-            + self.marks.capacity() * std::mem::size_of::<u32>()
+        crate::heap::vec_bytes(&self.cells) + crate::heap::vec_bytes(&self.marks)
     }
 
     /// An empty (all unknown) grid of 128 × 128 cells centred on the map origin. Unusable
