@@ -23,6 +23,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, ensure};
 use common::{SERVICE_LOG, in_temp_dir, start_service};
+use sketchslam_slam::process_stats::status_bytes;
 use sketchslam_tests::processes::unique_prefix;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
@@ -147,19 +148,10 @@ async fn parallel_large_uploads_stay_within_the_memory_bound() -> Result<()> {
 /// `VmHWM` (peak resident) and `VmRSS` of process `pid`, bytes.
 fn peak_and_resident(pid: u32) -> Result<(u64, u64)> {
     let status = std::fs::read_to_string(format!("/proc/{pid}/status"))?;
-    let field = |name: &str| -> Result<u64> {
-        let line = status
-            .lines()
-            .find(|l| l.starts_with(name))
-            .with_context(|| format!("no {name} in /proc/{pid}/status"))?;
-        let kb: u64 = line
-            .split_whitespace()
-            .nth(1)
-            .context("no value")?
-            .parse()?;
-        Ok(kb * 1024)
+    let field = |name: &str| {
+        status_bytes(&status, name).with_context(|| format!("no {name} in /proc/{pid}/status"))
     };
-    Ok((field("VmHWM:")?, field("VmRSS:")?))
+    Ok((field("VmHWM")?, field("VmRSS")?))
 }
 
 async fn run_uploads(data: &std::path::Path) -> Result<()> {

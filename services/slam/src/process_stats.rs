@@ -45,10 +45,18 @@ impl ProcessStats {
     }
 }
 
-/// `VmRSS:` of a `/proc/PID/status` text, in bytes (the file gives kB).
+/// `VmRSS:` of a `/proc/PID/status` text, in bytes.
 pub fn vm_rss_bytes(status: &str) -> Option<u64> {
-    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
-    let mut words = line["VmRSS:".len()..].split_whitespace();
+    status_bytes(status, "VmRSS")
+}
+
+/// A memory field (`VmRSS`, `VmHWM`, ...) of a `/proc/PID/status` text, in bytes (the file
+/// gives kB); `None` when it is absent or not in kB.
+pub fn status_bytes(status: &str, field: &str) -> Option<u64> {
+    let line = status
+        .lines()
+        .find_map(|l| l.strip_prefix(field)?.strip_prefix(':'))?;
+    let mut words = line.split_whitespace();
     let kb: u64 = words.next()?.parse().ok()?;
     (words.next() == Some("kB")).then_some(kb * 1024)
 }
@@ -63,6 +71,9 @@ mod tests {
         assert_eq!(vm_rss_bytes(status), Some(45312 * 1024));
         assert_eq!(vm_rss_bytes("Name:\tx\n"), None);
         assert_eq!(vm_rss_bytes("VmRSS:\t12 MB\n"), None);
+        assert_eq!(status_bytes(status, "VmPeak"), Some(900 * 1024));
+        // A field whose name another extends is not matched by the shorter name.
+        assert_eq!(status_bytes("VmRSSx:\t1 kB\n", "VmRSS"), None);
     }
 
     #[test]
