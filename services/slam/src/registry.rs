@@ -178,13 +178,11 @@ impl Registry {
     /// `silent` since its last message; returns their ids. A session still waiting for its
     /// robot's first message is left running.
     pub fn stop_silent_sessions(&self, silent: std::time::Duration) -> Vec<String> {
-        let quiet: Vec<String> = lock(&self.sessions)
-            .entries
-            .iter()
-            .filter_map(|(id, e)| match e {
-                Entry::Live(s) if s.silent_for().is_some_and(|d| d >= silent) => Some(id.clone()),
-                _ => None,
-            })
+        let quiet: Vec<String> = self
+            .running()
+            .into_iter()
+            .filter(|s| s.silent_for().is_some_and(|d| d >= silent))
+            .map(|s| s.id.clone())
             .collect();
         quiet
             .into_iter()
@@ -205,15 +203,19 @@ impl Registry {
     /// last one ([`Session::checkpoint`]); returns how many were written. A failed write is
     /// logged and retried at the next call.
     pub fn checkpoint_sessions(&self) -> usize {
-        let live: Vec<Arc<Session>> = lock(&self.sessions)
+        self.running().iter().filter(|s| self.checkpoint(s)).count()
+    }
+
+    /// The running sessions, copied out of the registry's lock.
+    fn running(&self) -> Vec<Arc<Session>> {
+        lock(&self.sessions)
             .entries
             .values()
             .filter_map(|e| match e {
                 Entry::Live(s) => Some(s.clone()),
                 Entry::Stopped(_) => None,
             })
-            .collect();
-        live.iter().filter(|s| self.checkpoint(s)).count()
+            .collect()
     }
 
     /// One session's checkpoint; false when none was written.
@@ -252,12 +254,7 @@ impl Registry {
     /// is dropped once they are stopped, so it learns that no session will follow.
     pub fn shutdown(&self) {
         self.closing.store(true, Ordering::SeqCst);
-        let ids: Vec<String> = lock(&self.sessions)
-            .entries
-            .iter()
-            .filter(|(_, e)| matches!(e, Entry::Live(_)))
-            .map(|(id, _)| id.clone())
-            .collect();
+        let ids: Vec<String> = self.running().iter().map(|s| s.id.clone()).collect();
         std::thread::scope(|scope| {
             for id in &ids {
                 scope.spawn(move || {
