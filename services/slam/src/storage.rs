@@ -1,4 +1,5 @@
-//! The data dir: sketches and stopped sessions, kept across restarts.
+//! The data dir: sketches, stopped sessions and the checkpoints of running ones, kept
+//! across restarts.
 //!
 //! ```text
 //! <data-dir>/sketches/<id>/image        the uploaded bytes, as sent
@@ -10,7 +11,9 @@
 //! <data-dir>/sessions/<id>/sketch-trajectory.json                       (sketch sessions)
 //! <data-dir>/sessions/<id>/registration.json, sketch-overlay.png,
 //!                          sketch-in-map.json, sketch-in-map.png       (once registered)
-//! <data-dir>/sessions/<id>/meta.json  final status and pose (written last)
+//! <data-dir>/sessions/<id>/meta.json  status and pose (written last): final once stopped,
+//!                                     the last checkpoint's while running (registration
+//!                                     files are written at the stop only)
 //! ```
 //!
 //! Every file is written to a temporary file of its own (a unique name, so two writers never
