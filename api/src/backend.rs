@@ -17,15 +17,15 @@ use crate::registration::{
 };
 use crate::types::{
     CreateSessionRequest, PoseResponse, SessionInfo, SketchInfo, SketchSummary,
-    SketchTrajectoryResponse, TrajectoryResponse,
+    SketchTrajectoryResponse, SketchUpload, TrajectoryResponse,
 };
 
 /// The operations behind the HTTP API.
 pub trait Backend: Send + Sync + 'static {
     /// Decodes and stores an uploaded sketch; refuses bodies that are no image
     /// (`invalid_image`), too large ones (`image_too_large`) and drawings without lines
-    /// (`no_lines`).
-    fn create_sketch(&self, name: Option<String>, image: Bytes) -> Result<SketchInfo, ApiError>;
+    /// (`no_lines`). `upload` has been checked.
+    fn create_sketch(&self, upload: SketchUpload, image: Bytes) -> Result<SketchInfo, ApiError>;
     /// Every stored sketch, oldest first.
     fn list_sketches(&self) -> Result<Vec<SketchSummary>, ApiError>;
     /// One sketch with its lines.

@@ -150,6 +150,16 @@ impl SketchslamClient {
         image: impl Into<Vec<u8>>,
         name: Option<&str>,
     ) -> Result<SketchInfo, ClientError> {
+        self.upload_sketch_with_scale(image, name, None).await
+    }
+
+    /// `POST /v1/sketches` with the drawing's scale declared (`?meters_per_pixel=`).
+    pub async fn upload_sketch_with_scale(
+        &self,
+        image: impl Into<Vec<u8>>,
+        name: Option<&str>,
+        meters_per_pixel: Option<f64>,
+    ) -> Result<SketchInfo, ClientError> {
         let image: Vec<u8> = image.into();
         let content_type = if image.starts_with(&[0xFF, 0xD8]) {
             "image/jpeg"
@@ -162,6 +172,9 @@ impl SketchslamClient {
             .body(image);
         if let Some(name) = name {
             builder = builder.query(&[("name", name)]);
+        }
+        if let Some(mpp) = meters_per_pixel {
+            builder = builder.query(&[("meters_per_pixel", mpp)]);
         }
         Self::json(builder).await
     }

@@ -36,7 +36,7 @@ use crate::registration_routes::{
 };
 use crate::types::{
     CreateSessionRequest, HealthResponse, PoseResponse, SessionEvent, SessionInfo, SessionList,
-    SketchInfo, SketchList,
+    SketchInfo, SketchList, SketchUpload, check_meters_per_pixel,
 };
 use crate::web;
 
@@ -359,12 +359,16 @@ pub(crate) async fn openapi_json() -> Response {
     }
 }
 
-/// `?name=` of a sketch upload.
+/// `?name=&meters_per_pixel=` of a sketch upload.
 #[derive(Debug, Deserialize, utoipa::IntoParams)]
 #[into_params(parameter_in = Query)]
 pub(crate) struct UploadQuery {
     /// A name for the sketch (at most 128 characters).
     name: Option<String>,
+    /// The drawing's scale, when known (e.g. from a CAD plan or a dimension on the
+    /// paper), meters per pixel, within 0.0001..10: the scale guess of every session on
+    /// it that gives none, and the scale of its frame in VDA 5050 positions.
+    meters_per_pixel: Option<f64>,
 }
 
 /// Uploads a sketch (PNG or JPEG body) and extracts its lines.
@@ -375,7 +379,7 @@ pub(crate) struct UploadQuery {
         (status = 400, description = "Empty body", body = ErrorBody),
         (status = 409, description = "As many sketches as the service keeps are stored (`too_many_sketches`): delete one first", body = ErrorBody),
         (status = 413, description = "Body or image too large", body = ErrorBody),
-        (status = 422, description = "Not an image, or no lines in it", body = ErrorBody)))]
+        (status = 422, description = "Not an image, no lines in it, a bad name or a scale out of range", body = ErrorBody)))]
 pub(crate) async fn create_sketch(
     State(state): State<AppState>,
     ApiQuery(query): ApiQuery<UploadQuery>,
@@ -397,7 +401,14 @@ pub(crate) async fn create_sketch(
         Some(name) if name.trim().is_empty() => None,
         other => other,
     };
-    let info = call(&state, move |b| b.create_sketch(name, body)).await?;
+    if let Some(mpp) = query.meters_per_pixel {
+        check_meters_per_pixel(mpp)?;
+    }
+    let upload = SketchUpload {
+        name,
+        meters_per_pixel: query.meters_per_pixel,
+    };
+    let info = call(&state, move |b| b.create_sketch(upload, body)).await?;
     Ok((StatusCode::CREATED, Json(info)))
 }
 

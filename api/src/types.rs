@@ -54,6 +54,9 @@ pub struct SketchSummary {
     pub line_count: usize,
     /// Upload time, milliseconds since the Unix epoch.
     pub created_unix_ms: u64,
+    /// The scale declared at upload, meters per pixel (see [`SketchInfo`]).
+    #[serde(default)]
+    pub meters_per_pixel: Option<f64>,
 }
 
 /// An uploaded sketch with its extracted lines.
@@ -69,6 +72,12 @@ pub struct SketchInfo {
     pub height_px: u32,
     /// Upload time, milliseconds since the Unix epoch.
     pub created_unix_ms: u64,
+    /// The scale declared at upload (`?meters_per_pixel=`), meters per pixel: the scale
+    /// guess of every session on the drawing that gives none, and the scale of the
+    /// drawing's frame in VDA 5050 positions (`mapId` = this drawing's id). Null when none
+    /// was declared.
+    #[serde(default)]
+    pub meters_per_pixel: Option<f64>,
     /// The extracted lines.
     pub lines: Vec<SketchLineInfo>,
 }
@@ -83,8 +92,19 @@ impl SketchInfo {
             height_px: self.height_px,
             line_count: self.lines.len(),
             created_unix_ms: self.created_unix_ms,
+            meters_per_pixel: self.meters_per_pixel,
         }
     }
+}
+
+/// What an upload says of its drawing besides the image (`POST /v1/sketches?name=…&
+/// meters_per_pixel=…`), checked.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SketchUpload {
+    /// A name, at most 128 characters.
+    pub name: Option<String>,
+    /// The drawing's scale, meters per pixel, within [`METERS_PER_PIXEL_RANGE`].
+    pub meters_per_pixel: Option<f64>,
 }
 
 /// `GET /v1/sketches`.
@@ -98,7 +118,8 @@ pub struct SketchList {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, ToSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum MappingMethod {
-    /// The hand-drawn-map method (needs `sketch_id`, `start`, `meters_per_pixel`).
+    /// The hand-drawn-map method (needs `sketch_id`, `start`, and `meters_per_pixel` unless
+    /// the drawing declared its scale at upload).
     Sketch,
     /// Baseline: frame-to-frame point-to-line ICP seeded by odometry, without the sketch
     /// (the paper's "conventional ICP-SLAM").
@@ -191,6 +212,7 @@ pub struct CreateSessionRequest {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub start: Option<SketchStart>,
     /// For `sketch`: a rough guess of the drawing's scale, meters per pixel (> 0).
+    /// Optional when the drawing declared its scale at upload: that is the guess then.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schema(example = 0.1)]
     pub meters_per_pixel: Option<f64>,
@@ -215,6 +237,26 @@ fn check_finite(field: &str, value: f64) -> Result<(), ApiError> {
 /// is a microscope's, 10 m a pixel a city map's; a floor drawn on paper or a screen lies
 /// between by orders of magnitude either way.
 pub const METERS_PER_PIXEL_RANGE: (f64, f64) = (1e-4, 10.0);
+
+/// Refuses a scale that is not finite or lies outside [`METERS_PER_PIXEL_RANGE`], naming
+/// the field `meters_per_pixel` (of a session or of an upload).
+pub fn check_meters_per_pixel(mpp: f64) -> Result<(), ApiError> {
+    check_finite("meters_per_pixel", mpp)?;
+    if mpp <= 0.0 {
+        return Err(ApiError::invalid_number(
+            "meters_per_pixel",
+            "must be greater than 0",
+        ));
+    }
+    let (lo, hi) = METERS_PER_PIXEL_RANGE;
+    if !(lo..=hi).contains(&mpp) {
+        return Err(ApiError::invalid_number(
+            "meters_per_pixel",
+            &format!("must lie between {lo} and {hi} (meters per pixel of the drawing)"),
+        ));
+    }
+    Ok(())
+}
 
 /// A start heading is refused beyond ± this many degrees (one turn either way is how people
 /// and tools write any heading).
@@ -274,27 +316,10 @@ impl CreateSessionRequest {
                 if start.v < 0.0 {
                     return Err(ApiError::invalid_number("start.v", "must not be negative"));
                 }
-                let mpp = self.meters_per_pixel.ok_or_else(|| {
-                    ApiError::invalid(
-                        "missing_field",
-                        "meters_per_pixel: required for method \"sketch\"",
-                    )
-                })?;
-                check_finite("meters_per_pixel", mpp)?;
-                if mpp <= 0.0 {
-                    return Err(ApiError::invalid_number(
-                        "meters_per_pixel",
-                        "must be greater than 0",
-                    ));
-                }
-                let (lo, hi) = METERS_PER_PIXEL_RANGE;
-                if !(lo..=hi).contains(&mpp) {
-                    return Err(ApiError::invalid_number(
-                        "meters_per_pixel",
-                        &format!(
-                            "must lie between {lo} and {hi} (meters per pixel of the drawing)"
-                        ),
-                    ));
+                // Absent, the drawing's declared scale stands in (checked by the service,
+                // which knows the drawing).
+                if let Some(mpp) = self.meters_per_pixel {
+                    check_meters_per_pixel(mpp)?;
                 }
             }
             MappingMethod::Icp | MappingMethod::Graph | MappingMethod::Odometry => {

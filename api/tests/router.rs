@@ -218,6 +218,28 @@ async fn sketch_upload_rejections_change_nothing() {
     .await;
     assert_eq!(cafe.status, StatusCode::CREATED, "{}", cafe.text());
     assert_eq!(cafe.json()["name"], "café");
+    assert_eq!(cafe.json()["meters_per_pixel"], Value::Null);
+    // A declared scale is checked like a session's and kept.
+    for bad in ["0", "-0.1", "1e308", "5e-324", "NaN", "inf"] {
+        let m = post(
+            &h.app,
+            &format!("/v1/sketches?meters_per_pixel={bad}"),
+            "image/png",
+            fake_png(10, 10, 1),
+        )
+        .await;
+        assert!(m.status.is_client_error(), "{bad}: {}", m.status);
+        assert!(m.text().contains("meters_per_pixel"), "{bad}: {}", m.text());
+    }
+    let scaled = post(
+        &h.app,
+        "/v1/sketches?meters_per_pixel=0.05",
+        "image/png",
+        fake_png(400, 400, 3),
+    )
+    .await;
+    assert_eq!(scaled.status, StatusCode::CREATED, "{}", scaled.text());
+    assert_eq!(scaled.json()["meters_per_pixel"], 0.05);
     h.fake.sketches.lock().unwrap().clear();
     // Declared too large: refused from the header, before reading.
     let mut big = fake_png(10, 10, 1);

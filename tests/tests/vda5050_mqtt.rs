@@ -22,10 +22,11 @@ use common::{SERVICE_LOG, in_temp_dir, start_service, wait_session};
 use rumqttc::{AsyncClient, Event, MqttOptions, Packet, QoS};
 use serde_json::Value;
 use sketchslam_api::MappingMethod;
+use sketchslam_simulator::scenario::Scenario;
 use sketchslam_tests::processes::{
     ChildGuard, binary, bundled_scenario, free_port, unique_prefix, workspace_root,
 };
-use sketchslam_tests::session_request::baseline_session;
+use sketchslam_tests::session_request::{baseline_session, sketch_session};
 
 /// The rate the service is asked for, Hz.
 const RATE_HZ: f64 = 5.0;
@@ -147,8 +148,9 @@ fn schema(name: &str) -> Result<jsonschema::Validator> {
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
 }
 
-/// Every message against its schema and the header rules; returns per-topic counts.
-fn check_all(got: &[Received], sessions: &BTreeMap<&str, String>) -> Result<()> {
+/// Every message against its schema and the header rules, each robot's positions on the
+/// map `map_ids` names for it.
+fn check_all(got: &[Received], map_ids: &BTreeMap<&str, String>) -> Result<()> {
     let visualization = schema("visualization")?;
     let connection = schema("connection")?;
     let mut last_id: BTreeMap<&str, u64> = BTreeMap::new();
@@ -176,8 +178,9 @@ fn check_all(got: &[Received], sessions: &BTreeMap<&str, String>) -> Result<()> 
             let position = &message["agvPosition"];
             ensure!(position["positionInitialized"] == true, "{message}");
             ensure!(
-                position["mapId"].as_str() == sessions.get(robot).map(String::as_str),
-                "mapId is not the session: {message}"
+                position["mapId"].as_str() == map_ids.get(robot).map(String::as_str),
+                "mapId is not {:?}: {message}",
+                map_ids.get(robot)
             );
             ensure!(
                 position["deviationRange"].as_f64().is_some_and(|d| d > 0.0),
@@ -236,7 +239,43 @@ async fn run(dir: &Path, data: &Path) -> Result<()> {
         sessions.insert(r, s.id);
     }
     let session = sessions[robot].clone();
+    // Robot vda-3 maps on sketch A, uploaded with its scale: its positions are on the
+    // drawing (mapId the drawing's id), where the sketch session puts it.
+    let drawn = "vda-3";
+    let scenario = Scenario::load(&bundled_scenario("paper-env1"))?;
+    let sketch_cfg = scenario
+        .sketches
+        .iter()
+        .find(|s| s.name == "A")
+        .context("sketch A")?
+        .clone();
+    let drawing = client
+        .upload_sketch_with_scale(
+            std::fs::read(&sketch_cfg.image)?,
+            Some("A"),
+            Some(sketch_cfg.meters_per_pixel),
+        )
+        .await?;
+    let mut on_drawing = sketch_session(drawn, &drawing.id, &sketch_cfg, None);
+    on_drawing.meters_per_pixel = None;
+    let drawn_session = client.create_session(&on_drawing).await?;
+    ensure!(
+        drawn_session.meters_per_pixel_guess == Some(sketch_cfg.meters_per_pixel),
+        "the session did not take the drawing's scale: {drawn_session:?}"
+    );
+    let mut map_ids = sessions.clone();
+    map_ids.insert(drawn, drawing.id.clone());
     let exe = binary("sketchslam-simulator", "simulator")?;
+    let mut drawn_sim = Command::new(&exe);
+    drawn_sim
+        .arg("run")
+        .arg(bundled_scenario("paper-env1"))
+        .args(["--robot", drawn, "--rate", "1.0", "--quiet"])
+        .args(["--ipc-prefix", &prefix])
+        .args(["--max-scans", "200"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null());
+    let _drawn_sim = ChildGuard::spawn("simulator", &mut drawn_sim)?;
     let mut sim_cmd = Command::new(exe);
     sim_cmd
         .arg("run")
@@ -263,9 +302,41 @@ async fn run(dir: &Path, data: &Path) -> Result<()> {
         &inbox,
         Duration::from_secs(60),
         "10 visualizations",
-        |got| visualizations(got, robot).len() >= 10,
+        |got| visualizations(got, robot).len() >= 10 && visualizations(got, drawn).len() >= 5,
     )
     .await?;
+    // In the drawing's frame: x = u·s, y = (H − v)·s. The first position is at the start
+    // marked on the drawing (within the 1 m the robot can have moved), every one on it.
+    let s = sketch_cfg.meters_per_pixel;
+    let (w_m, h_m) = (
+        f64::from(drawing.width_px) * s,
+        f64::from(drawing.height_px) * s,
+    );
+    let start = (
+        sketch_cfg.start_u_px * s,
+        (f64::from(drawing.height_px) - sketch_cfg.start_v_px) * s,
+    );
+    let placed: Vec<(f64, f64)> = visualizations(&snapshot(&inbox), drawn)
+        .iter()
+        .map(|r| {
+            let p = &json(r)["agvPosition"];
+            (
+                p["x"].as_f64().unwrap_or(f64::NAN),
+                p["y"].as_f64().unwrap_or(f64::NAN),
+            )
+        })
+        .collect();
+    let first = placed[0];
+    ensure!(
+        (first.0 - start.0).hypot(first.1 - start.1) < 1.0,
+        "vda-3's first position {first:?} is not at the start marked on the drawing {start:?}"
+    );
+    ensure!(
+        placed
+            .iter()
+            .all(|&(x, y)| (0.0..=w_m).contains(&x) && (0.0..=h_m).contains(&y)),
+        "vda-3 placed off the {w_m} × {h_m} m drawing: {placed:?}"
+    );
 
     // The broker goes away: HTTP answers and the session goes on mapping.
     broker.kill();
@@ -330,7 +401,7 @@ async fn run(dir: &Path, data: &Path) -> Result<()> {
     broker.kill();
 
     let got = snapshot(&inbox);
-    check_all(&got, &sessions)?;
+    check_all(&got, &map_ids)?;
     let last_state = |r: &str| {
         got.iter()
             .rev()

@@ -310,7 +310,11 @@ async fn drive(c: &Client, base: &str, prefix: &str, shots: &Path) -> Result<()>
         "refusal shown: {refusal}"
     );
 
-    // Upload through the file input.
+    // Upload through the file input, with the drawing's scale declared.
+    c.find(Locator::Id("sketch-mpp"))
+        .await?
+        .send_keys(&sketch.meters_per_pixel.to_string())
+        .await?;
     let image = std::fs::canonicalize(&sketch.image)?;
     c.find(Locator::Id("file-input"))
         .await?
@@ -327,6 +331,22 @@ async fn drive(c: &Client, base: &str, prefix: &str, shots: &Path) -> Result<()>
     ensure!(
         status.as_str().is_some_and(|s| s.contains("lines found")),
         "upload status: {status}"
+    );
+    // The declared scale is the drawing's: listed with it, and the start form starts from it.
+    let declared = c
+        .execute(
+            "return [document.getElementById('sketch-list').textContent,
+                     document.getElementById('mpp').value]",
+            vec![],
+        )
+        .await?;
+    let scale = sketch.meters_per_pixel.to_string();
+    ensure!(
+        declared[0]
+            .as_str()
+            .is_some_and(|t| t.contains(&format!("{scale} m/px")))
+            && declared[1] == json!(scale),
+        "the declared scale {scale} is not on the page: {declared}"
     );
     let labels = c
         .execute(

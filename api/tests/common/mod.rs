@@ -44,7 +44,7 @@ impl Fake {
 
     fn create_sketch_now(
         &self,
-        name: Option<String>,
+        upload: SketchUpload,
         image: Bytes,
     ) -> Result<SketchInfo, ApiError> {
         let Some(rest) = image.strip_prefix(PNG_MAGIC) else {
@@ -74,10 +74,11 @@ impl Fake {
         }
         let info = SketchInfo {
             id: self.next_id(),
-            name,
+            name: upload.name,
             width_px: w as u32,
             height_px: h as u32,
             created_unix_ms: 1,
+            meters_per_pixel: upload.meters_per_pixel,
             lines: (0..lines as usize)
                 .map(|index| SketchLineInfo {
                     index,
@@ -106,10 +107,10 @@ impl Fake {
 }
 
 impl Backend for Fake {
-    fn create_sketch(&self, name: Option<String>, image: Bytes) -> Result<SketchInfo, ApiError> {
+    fn create_sketch(&self, upload: SketchUpload, image: Bytes) -> Result<SketchInfo, ApiError> {
         let now = self.uploads_in_flight.fetch_add(1, Ordering::SeqCst) + 1;
         self.max_uploads_in_flight.fetch_max(now, Ordering::SeqCst);
-        let answer = self.create_sketch_now(name, image);
+        let answer = self.create_sketch_now(upload, image);
         self.uploads_in_flight.fetch_sub(1, Ordering::SeqCst);
         answer
     }
@@ -147,9 +148,16 @@ impl Backend for Fake {
             .ok_or_else(|| ApiError::sketch_not_found(id))
     }
 
-    fn create_session(&self, r: CreateSessionRequest) -> Result<SessionInfo, ApiError> {
+    fn create_session(&self, mut r: CreateSessionRequest) -> Result<SessionInfo, ApiError> {
         if let Some(sketch_id) = &r.sketch_id {
             let sketch = self.get_sketch(sketch_id)?;
+            r.meters_per_pixel = r.meters_per_pixel.or(sketch.meters_per_pixel);
+            if r.meters_per_pixel.is_none() {
+                return Err(ApiError::invalid(
+                    "missing_field",
+                    "meters_per_pixel: required for method \"sketch\" on a drawing that declared no scale",
+                ));
+            }
             let start = r.start.unwrap();
             if start.u >= sketch.width_px as f64 || start.v >= sketch.height_px as f64 {
                 return Err(ApiError::invalid(

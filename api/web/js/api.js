@@ -74,8 +74,13 @@ export async function del(path) {
   return resp.status === 204 ? null : resp.json();
 }
 
-export async function uploadSketch(file, name) {
-  const q = name ? `?name=${encodeURIComponent(name)}` : '';
+// Uploads a drawing with its name and, when known, its scale (meters per pixel).
+export async function uploadSketch(file, name, metersPerPixel) {
+  const params = new URLSearchParams();
+  if (name) params.set('name', name);
+  if (metersPerPixel) params.set('meters_per_pixel', String(metersPerPixel));
+  const query = params.toString();
+  const q = query ? `?${query}` : '';
   const type = file.type || 'application/octet-stream';
   const resp = await request('POST', `/v1/sketches${q}`, { body: file, contentType: type });
   return resp.json();

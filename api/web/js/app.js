@@ -51,7 +51,7 @@ async function upload(file) {
   if (!file) return;
   $('upload-status').textContent = `uploading ${file.name} (${Math.round(file.size / 1024)} kB)…`;
   try {
-    const info = await uploadSketch(file, $('sketch-name').value.trim() || file.name);
+    const info = await uploadSketch(file, $('sketch-name').value.trim() || file.name, number('sketch-mpp'));
     $('upload-status').textContent = `${info.name ?? info.id}: ${info.lines.length} lines found`;
     await listSketches();
     await chooseSketch(info.id);
@@ -89,7 +89,8 @@ async function listSketches() {
       if (state.sketch?.id === s.id) li.classList.add('selected');
       const name = document.createElement('span');
       name.className = 'grow';
-      name.textContent = `${s.name ?? s.id} · ${s.width_px}×${s.height_px} px · ${s.line_count} lines`;
+      const scale = s.meters_per_pixel ? ` · ${s.meters_per_pixel} m/px` : '';
+      name.textContent = `${s.name ?? s.id} · ${s.width_px}×${s.height_px} px · ${s.line_count} lines${scale}`;
       const use = document.createElement('button');
       use.type = 'button';
       use.textContent = 'Use';
@@ -134,7 +135,10 @@ async function chooseSketch(id) {
     state.startView.setPicture(url, sketch.width_px, sketch.height_px);
     state.startView.setLines(sketch.lines);
     $('start-svg').dataset.sketch = sketch.id;
-    $('start-hint').textContent = `Drawing ${sketch.name ?? sketch.id}: ${sketch.lines.length} numbered lines. `
+    // A scale declared at upload is the drawing's: the form starts from it.
+    if (sketch.meters_per_pixel) $('mpp').value = sketch.meters_per_pixel;
+    const declared = sketch.meters_per_pixel ? ` Its scale, declared at upload: ${sketch.meters_per_pixel} m/px.` : '';
+    $('start-hint').textContent = `Drawing ${sketch.name ?? sketch.id}: ${sketch.lines.length} numbered lines.${declared} `
       + 'Click where the robot stands and drag toward where it faces.';
     for (const li of $('sketch-list').children) li.classList.toggle('selected', li.dataset.id === id);
     drawStart();

@@ -160,6 +160,7 @@ pub fn sketch_info(meta: &SketchMeta, shape: &SketchShape) -> SketchInfo {
         width_px: shape.width_px,
         height_px: shape.height_px,
         created_unix_ms: meta.created_unix_ms,
+        meters_per_pixel: meta.meters_per_pixel,
         lines: shape
             .lines
             .iter()

@@ -13,8 +13,8 @@ use axum::body::Bytes;
 use sketchslam_api::{
     ApiError, Backend, CreateSessionRequest, EventSubscription, MapFrame, MappingMethod,
     OccupancyGridResponse, PoseResponse, RegistrationInfo, SessionInfo, SessionState,
-    SketchInMapResponse, SketchInfo, SketchSummary, SketchTrajectoryResponse, StopReason,
-    TaggedPng, TrajectoryResponse, TransformRequest, TransformResponse,
+    SketchInMapResponse, SketchInfo, SketchSummary, SketchTrajectoryResponse, SketchUpload,
+    StopReason, TaggedPng, TrajectoryResponse, TransformRequest, TransformResponse,
 };
 use sketchslam_ipc::IpcConfig;
 
@@ -348,8 +348,8 @@ impl Registry {
 }
 
 impl Backend for Registry {
-    fn create_sketch(&self, name: Option<String>, image: Bytes) -> Result<SketchInfo, ApiError> {
-        self.sketches.create(name, &image)
+    fn create_sketch(&self, upload: SketchUpload, image: Bytes) -> Result<SketchInfo, ApiError> {
+        self.sketches.create(upload, &image)
     }
 
     fn list_sketches(&self) -> Result<Vec<SketchSummary>, ApiError> {
@@ -368,14 +368,26 @@ impl Backend for Registry {
         self.sketches.delete(id)
     }
 
-    fn create_session(&self, request: CreateSessionRequest) -> Result<SessionInfo, ApiError> {
+    fn create_session(&self, mut request: CreateSessionRequest) -> Result<SessionInfo, ApiError> {
         if self.closing.load(Ordering::SeqCst) {
             return Err(ApiError::Unavailable("the service is shutting down".into()));
         }
         // Cheap checks first, so a bad request never touches the robot's services.
         if request.method == MappingMethod::Sketch {
-            self.sketches
+            let drawing = self
+                .sketches
                 .info(request.sketch_id.as_deref().unwrap_or_default())?;
+            // No scale given: the one the drawing declared at upload.
+            request.meters_per_pixel = request.meters_per_pixel.or(drawing.meters_per_pixel);
+            if request.meters_per_pixel.is_none() {
+                return Err(ApiError::invalid(
+                    "missing_field",
+                    format!(
+                        "meters_per_pixel: required for method \"sketch\" on drawing {} (it declared no scale at upload)",
+                        drawing.id
+                    ),
+                ));
+            }
         }
         {
             let mut sessions = lock(&self.sessions);
@@ -418,7 +430,12 @@ impl Backend for Registry {
         let info = session.info();
         if let Some(observer) = lock(&self.observer).as_ref() {
             // From its first event (kept since the start), not from now.
-            let _ = observer.send((info.clone(), session.subscribe(Some(0))));
+            let drawing = info
+                .sketch_id
+                .as_deref()
+                .and_then(|id| self.sketches.info(id).ok())
+                .map(|d| d.summary());
+            let _ = observer.send((info.clone(), drawing, session.subscribe(Some(0))));
         }
         sessions.entries.insert(id, Entry::Live(session.clone()));
         drop(sessions);

@@ -10,7 +10,7 @@
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex, Weak};
 
-use sketchslam_api::{ApiError, SketchInfo, SketchSummary};
+use sketchslam_api::{ApiError, SketchInfo, SketchSummary, SketchUpload};
 use sketchslam_engine::sketch::Sketch;
 use sketchslam_engine::sketch::overlay::{encode_png, render_overlay};
 
@@ -122,14 +122,16 @@ impl SketchStore {
         Ok(())
     }
 
-    /// Decodes `image`, extracts its lines and stores it under a new id.
-    pub fn create(&self, name: Option<String>, image: &[u8]) -> Result<SketchInfo, ApiError> {
+    /// Decodes `image`, extracts its lines and stores it under a new id with what the
+    /// upload said of it.
+    pub fn create(&self, upload: SketchUpload, image: &[u8]) -> Result<SketchInfo, ApiError> {
         self.room_in(&lock(&self.sketches))?;
         let sketch = Arc::new(Sketch::from_image_bytes(image).map_err(image_error)?);
         let meta = SketchMeta {
             id: uuid::Uuid::new_v4().to_string(),
-            name,
+            name: upload.name,
             created_unix_ms: now_unix_ms(),
+            meters_per_pixel: upload.meters_per_pixel,
         };
         let mut sketches = lock(&self.sketches);
         // Again under the lock: uploads decode in parallel.

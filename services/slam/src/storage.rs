@@ -42,6 +42,10 @@ pub struct SketchMeta {
     pub name: Option<String>,
     /// Upload time, ms since the epoch.
     pub created_unix_ms: u64,
+    /// The scale declared at upload, meters per pixel (absent in versions before
+    /// 2026-12-04).
+    #[serde(default)]
+    pub meters_per_pixel: Option<f64>,
 }
 
 /// What the service keeps of a processed drawing besides its stroke mask (`sketch.json`):
@@ -466,6 +470,7 @@ mod tests {
             id: id.into(),
             name: Some("A".into()),
             created_unix_ms: 1,
+            meters_per_pixel: None,
         }
     }
 

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use axum::body::Bytes;
 use sketchslam_api::{
-    ApiError, Backend, CreateSessionRequest, MappingMethod, SessionState, SketchStart,
+    ApiError, Backend, CreateSessionRequest, MappingMethod, SessionState, SketchStart, SketchUpload,
 };
 use sketchslam_engine::sketch::Sketch;
 use sketchslam_ipc::{Delivery, IpcConfig, RobotPublisher};
@@ -72,6 +72,14 @@ fn sketch_start(sketch_id: &str, u: f64, v: f64) -> CreateSessionRequest {
         meters_per_pixel: Some(0.1),
         seed: None,
         lidar_mount: None,
+    }
+}
+
+/// An upload named `name` with no scale.
+fn named(name: &str) -> SketchUpload {
+    SketchUpload {
+        name: Some(name.into()),
+        meters_per_pixel: None,
     }
 }
 
@@ -197,7 +205,7 @@ fn sketches_are_ingested_and_starts_validated() {
     let reg = registry(&dir.0, &unique_prefix());
     let png = sketch_a();
     let info = reg
-        .create_sketch(Some("A".into()), Bytes::from(png.clone()))
+        .create_sketch(named("A"), Bytes::from(png.clone()))
         .unwrap();
     assert!(info.lines.len() >= 4, "{} lines", info.lines.len());
     assert!(
@@ -208,7 +216,7 @@ fn sketches_are_ingested_and_starts_validated() {
 
     assert_eq!(
         code(
-            reg.create_sketch(None, Bytes::from_static(b"not an image"))
+            reg.create_sketch(SketchUpload::default(), Bytes::from_static(b"not an image"))
                 .unwrap_err()
         ),
         "invalid_image"
@@ -222,7 +230,10 @@ fn sketches_are_ingested_and_starts_validated() {
         )
         .unwrap();
     assert_eq!(
-        code(reg.create_sketch(None, Bytes::from(blank)).unwrap_err()),
+        code(
+            reg.create_sketch(SketchUpload::default(), Bytes::from(blank))
+                .unwrap_err()
+        ),
         "no_lines"
     );
     assert_eq!(reg.list_sketches().unwrap().len(), 1);
@@ -274,12 +285,18 @@ fn stored_sketches_open_without_decoding_their_images_and_are_capped() {
     let prefix = unique_prefix();
     let reg = registry_keeping(&dir.0, &prefix, 2);
     let png = Bytes::from(sketch_a());
-    let first = reg.create_sketch(Some("A".into()), png.clone()).unwrap();
-    let second = reg.create_sketch(None, png.clone()).unwrap();
-    let over = reg.create_sketch(None, png.clone()).unwrap_err();
+    let first = reg.create_sketch(named("A"), png.clone()).unwrap();
+    let second = reg
+        .create_sketch(SketchUpload::default(), png.clone())
+        .unwrap();
+    let over = reg
+        .create_sketch(SketchUpload::default(), png.clone())
+        .unwrap_err();
     assert_eq!(code(over.clone()), "too_many_sketches", "{over}");
     reg.delete_sketch(&second.id).unwrap();
-    let second = reg.create_sketch(None, png.clone()).unwrap();
+    let second = reg
+        .create_sketch(SketchUpload::default(), png.clone())
+        .unwrap();
     let overlay = reg.sketch_overlay_png(&first.id).unwrap();
     reg.shutdown();
     drop(reg);
@@ -320,12 +337,64 @@ fn stored_sketches_open_without_decoding_their_images_and_are_capped() {
 }
 
 #[test]
+fn a_drawing_keeps_its_declared_scale_and_sessions_without_one_take_it() {
+    let dir = TempDir::new();
+    let prefix = unique_prefix();
+    let reg = registry(&dir.0, &prefix);
+    let png = Bytes::from(sketch_a());
+    let scaled = SketchUpload {
+        name: Some("A".into()),
+        meters_per_pixel: Some(0.1),
+    };
+    let drawing = reg.create_sketch(scaled, png.clone()).unwrap();
+    assert_eq!(drawing.meters_per_pixel, Some(0.1));
+    let unscaled = reg.create_sketch(named("B"), png).unwrap();
+    assert_eq!(unscaled.meters_per_pixel, None);
+
+    // No scale in the request: the drawing's, or a 422 naming the field on one without.
+    let without = |id: &str| CreateSessionRequest {
+        meters_per_pixel: None,
+        ..sketch_start(id, 66.9, 320.3)
+    };
+    let e = reg.create_session(without(&unscaled.id)).unwrap_err();
+    assert_eq!(code(e.clone()), "missing_field", "{e}");
+    assert!(e.to_string().contains("meters_per_pixel"), "{e}");
+    let session = reg.create_session(without(&drawing.id)).unwrap();
+    assert_eq!(session.meters_per_pixel_guess, Some(0.1));
+    // A scale given wins over the drawing's.
+    reg.stop_session(&session.id).unwrap();
+    let own = reg
+        .create_session(CreateSessionRequest {
+            meters_per_pixel: Some(0.12),
+            ..without(&drawing.id)
+        })
+        .unwrap();
+    assert_eq!(own.meters_per_pixel_guess, Some(0.12));
+    reg.shutdown();
+    drop(reg);
+
+    // Kept across a restart, in the list too.
+    let reg = registry(&dir.0, &prefix);
+    assert_eq!(
+        reg.get_sketch(&drawing.id).unwrap().meters_per_pixel,
+        Some(0.1)
+    );
+    let listed = reg.list_sketches().unwrap();
+    let scale_of = |id: &str| listed.iter().find(|s| s.id == id).unwrap().meters_per_pixel;
+    assert_eq!(
+        (scale_of(&drawing.id), scale_of(&unscaled.id)),
+        (Some(0.1), None)
+    );
+    reg.shutdown();
+}
+
+#[test]
 fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
     let dir = TempDir::new();
     let prefix = unique_prefix();
     let reg = registry(&dir.0, &prefix);
     let sketch = reg
-        .create_sketch(Some("A".into()), Bytes::from(sketch_a()))
+        .create_sketch(named("A"), Bytes::from(sketch_a()))
         .unwrap();
     let session = reg
         .create_session(CreateSessionRequest {
@@ -407,7 +476,7 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
     let prefix = unique_prefix();
     let reg = registry(&dir.0, &prefix);
     let sketch = reg
-        .create_sketch(Some("A".into()), Bytes::from(sketch_a()))
+        .create_sketch(named("A"), Bytes::from(sketch_a()))
         .unwrap();
     let session = reg
         .create_session(CreateSessionRequest {

@@ -23,7 +23,7 @@ use sketchslam_api::{EventSubscription, SessionInfo};
 use tokio::sync::{broadcast, watch};
 
 use super::Vda5050Config;
-use super::messages::{Connection, ConnectionState, Header, Visualization};
+use super::messages::{Connection, ConnectionState, DrawingFrame, Header, Visualization};
 use super::position_tracker::PositionTracker;
 
 /// Requests queued toward the broker at most; more visualizations are dropped.
@@ -99,11 +99,13 @@ impl ConnectionTopic {
     }
 }
 
-/// Serves one session until its events end (it stopped), then says OFFLINE.
+/// Serves one session until its events end (it stopped), then says OFFLINE. Positions are
+/// in the `drawing`'s frame when the session maps on one, else in the session's map.
 pub async fn run_session(
     config: Arc<Vda5050Config>,
     resolution_m: f64,
     info: SessionInfo,
+    drawing: Option<DrawingFrame>,
     events: EventSubscription,
 ) {
     let from = Arc::new(Sender {
@@ -160,7 +162,7 @@ pub async fn run_session(
                     continue;
                 }
                 let Some((position, velocity)) =
-                    tracker.take_fresh(resolution_m, config.drift_per_m)
+                    tracker.take_fresh(resolution_m, config.drift_per_m, drawing.as_ref())
                 else {
                     continue;
                 };

@@ -8,7 +8,7 @@
 //! to the vehicle's own controller.
 
 use serde::Serialize;
-use sketchslam_api::PoseResponse;
+use sketchslam_api::{PoseResponse, SessionInfo, SketchPoseInfo, SketchSummary};
 
 /// The version string every header carries: the protocol this module follows.
 pub const PROTOCOL_VERSION: &str = "2.1.0";
@@ -109,7 +109,9 @@ pub struct AgvPosition {
     pub y: f64,
     /// Map-frame heading, radians in [-π, π].
     pub theta: f64,
-    /// The map the position is in: the session id (the map `GET /v1/sessions/{id}/map` serves).
+    /// The map the position is in: for a session on a drawing the drawing's id (its frame:
+    /// [`DrawingFrame`]), otherwise the session id (the map `GET /v1/sessions/{id}/map`
+    /// serves).
     pub map_id: String,
     /// False until the session has processed a scan.
     pub position_initialized: bool,
@@ -143,24 +145,90 @@ pub struct Visualization {
     pub velocity: Velocity,
 }
 
-/// Builds `agvPosition` from a pose the session published; `None` when the pose holds a
-/// non-finite number (JSON has none, and a fleet manager must not read a made-up one).
-pub fn agv_position(pose: &PoseResponse, deviation_range_m: f64) -> Option<AgvPosition> {
+/// A drawing as a VDA 5050 map, so that every robot mapping on one drawing reports in one
+/// frame and a fleet manager shows them all on it: `mapId` is the drawing's id, the origin
+/// its lower-left corner, x along its columns and y up its rows, in meters at the scale it
+/// declared at upload (else at the session's scale guess). A point `(u, v)` (pixels from
+/// the left and top edges) of a drawing `H` pixels high at `s` meters per pixel is at
+///
+/// `x = u·s,   y = (H − v)·s`,
+///
+/// where ROS's map_server puts the same pixel of an image with resolution `s` and origin
+/// `(0, 0, 0)`; a heading on the drawing (counter-clockwise from +u as it is seen) is the
+/// same angle from +x. Sessions on one drawing given different scales would disagree, which
+/// is what declaring the scale at upload prevents.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DrawingFrame {
+    /// The drawing's id.
+    pub map_id: String,
+    /// The drawing's height, pixels.
+    pub height_px: f64,
+    /// The frame's scale, meters per pixel.
+    pub meters_per_pixel: f64,
+}
+
+impl DrawingFrame {
+    /// The frame of the drawing `drawing` a session `info` maps on; `None` for a session
+    /// without a drawing or without a usable scale.
+    pub fn of(info: &SessionInfo, drawing: Option<&SketchSummary>) -> Option<Self> {
+        let drawing = drawing.filter(|d| info.sketch_id.as_deref() == Some(d.id.as_str()))?;
+        let scale = drawing.meters_per_pixel.or(info.meters_per_pixel_guess)?;
+        (scale.is_finite() && scale > 0.0).then(|| Self {
+            map_id: drawing.id.clone(),
+            height_px: f64::from(drawing.height_px),
+            meters_per_pixel: scale,
+        })
+    }
+
+    /// The pose `on` the drawing in this frame: `(x, y, θ)` of the type doc. O(1).
+    pub fn place(&self, on: &SketchPoseInfo) -> (f64, f64, f64) {
+        let s = self.meters_per_pixel;
+        (
+            on.u * s,
+            (self.height_px - on.v) * s,
+            wrap_pi(on.heading_deg.to_radians()),
+        )
+    }
+}
+
+/// Builds `agvPosition` from a pose the session published: in the map frame, or, with a
+/// `drawing` frame, at the pose on the drawing (`None` while the pose has none), the
+/// deviation carried from map meters to the frame's by the drawing's local scale there.
+/// `None` when a number is not finite (JSON has none, and a fleet manager must not read a
+/// made-up one).
+pub fn agv_position(
+    pose: &PoseResponse,
+    deviation_range_m: f64,
+    drawing: Option<&DrawingFrame>,
+) -> Option<AgvPosition> {
+    let ((x, y, theta), map_id, deviation) = match drawing {
+        None => (
+            (pose.x, pose.y, wrap_pi(pose.theta)),
+            pose.map_id.clone(),
+            deviation_range_m,
+        ),
+        Some(frame) => {
+            let on = pose.sketch.as_ref()?;
+            // One map meter is 1 / s_local pixels, each s_frame meters of the frame.
+            let deviation = deviation_range_m * frame.meters_per_pixel / on.meters_per_pixel;
+            (frame.place(on), frame.map_id.clone(), deviation)
+        }
+    };
     let position = AgvPosition {
-        x: pose.x,
-        y: pose.y,
-        theta: wrap_pi(pose.theta),
-        map_id: pose.map_id.clone(),
+        x,
+        y,
+        theta,
+        map_id,
         position_initialized: pose.position_initialized,
         localization_score: pose.localization_score.clamp(0.0, 1.0),
-        deviation_range: deviation_range_m,
+        deviation_range: deviation,
     };
     [
         position.x,
         position.y,
         position.theta,
         position.localization_score,
-        deviation_range_m,
+        position.deviation_range,
     ]
     .iter()
     .all(|v| v.is_finite())
@@ -300,7 +368,7 @@ mod tests {
                 manufacturer: "sketchslam".into(),
                 serial_number: "r1".into(),
             },
-            agv_position: agv_position(&pose, 0.1).unwrap(),
+            agv_position: agv_position(&pose, 0.1, None).unwrap(),
             velocity: Velocity::default(),
         };
         let json = serde_json::to_value(&message).unwrap();
@@ -322,6 +390,100 @@ mod tests {
             x: f64::NAN,
             ..pose
         };
-        assert!(agv_position(&nan, 0.1).is_none());
+        assert!(agv_position(&nan, 0.1, None).is_none());
+    }
+
+    #[test]
+    fn a_pose_on_a_drawing_is_placed_in_the_drawing_frame() {
+        let frame = DrawingFrame {
+            map_id: "d".into(),
+            height_px: 400.0,
+            meters_per_pixel: 0.05,
+        };
+        // Pixel (100, 300) of a 400 px high drawing at 5 cm a pixel: x = 5 m, y = 100 px
+        // up from the bottom = 5 m; facing up the drawing (90° counter-clockwise from +u).
+        let on = SketchPoseInfo {
+            u: 100.0,
+            v: 300.0,
+            heading_deg: 90.0,
+            meters_per_pixel: 0.1,
+            source: None,
+        };
+        let pose = PoseResponse {
+            session_id: "s".into(),
+            x: -7.0,
+            y: 3.0,
+            theta: 0.0,
+            stamp: Some(1.0),
+            sketch: Some(on),
+            map_id: "s".into(),
+            position_initialized: true,
+            localization_score: 0.9,
+        };
+        let p = agv_position(&pose, 0.2, Some(&frame)).unwrap();
+        assert_eq!(p.map_id, "d");
+        assert!(
+            (p.x - 5.0).abs() < 1e-12 && (p.y - 5.0).abs() < 1e-12,
+            "{p:?}"
+        );
+        assert!((p.theta - PI / 2.0).abs() < 1e-12);
+        // 0.2 map meters are 2 px where the drawing is 0.1 m a pixel: 0.1 m of the frame.
+        assert!((p.deviation_range - 0.1).abs() < 1e-12);
+        // Without a pose on the drawing there is nothing to say in its frame.
+        let off = PoseResponse {
+            sketch: None,
+            ..pose.clone()
+        };
+        assert!(agv_position(&off, 0.2, Some(&frame)).is_none());
+        // The map frame as before.
+        let map = agv_position(&pose, 0.2, None).unwrap();
+        assert_eq!((map.map_id.as_str(), map.x, map.y), ("s", -7.0, 3.0));
+    }
+
+    #[test]
+    fn the_frame_takes_the_declared_scale_before_the_session_guess() {
+        let drawing = SketchSummary {
+            id: "d".into(),
+            name: None,
+            width_px: 540,
+            height_px: 390,
+            line_count: 26,
+            created_unix_ms: 1,
+            meters_per_pixel: Some(0.1),
+        };
+        let info: SessionInfo = serde_json::from_value(serde_json::json!({
+            "id": "s", "robot_id": "r1", "method": "sketch", "sketch_id": "d",
+            "start": {"u": 1.0, "v": 2.0, "heading_deg": 0.0},
+            "meters_per_pixel_guess": 0.12, "state": "mapping", "scans_processed": 0,
+            "scans_lost": 0, "localization_score": 0.0, "recoveries": 0,
+            "estimated_meters_per_pixel": 0.12, "last_error": null, "created_unix_ms": 1,
+            "stopped_unix_ms": null, "stop_reason": null
+        }))
+        .unwrap();
+        let frame = DrawingFrame::of(&info, Some(&drawing)).unwrap();
+        assert_eq!(
+            (
+                frame.map_id.as_str(),
+                frame.height_px,
+                frame.meters_per_pixel
+            ),
+            ("d", 390.0, 0.1)
+        );
+        // Undeclared: the session's guess.
+        let undeclared = SketchSummary {
+            meters_per_pixel: None,
+            ..drawing.clone()
+        };
+        assert_eq!(
+            DrawingFrame::of(&info, Some(&undeclared)).map(|f| f.meters_per_pixel),
+            Some(0.12)
+        );
+        // Another drawing, or none: no drawing frame.
+        let other = SketchSummary {
+            id: "e".into(),
+            ..drawing
+        };
+        assert!(DrawingFrame::of(&info, Some(&other)).is_none());
+        assert!(DrawingFrame::of(&info, None).is_none());
     }
 }

@@ -12,7 +12,7 @@ pub mod position_tracker;
 use std::sync::Arc;
 use std::time::Duration;
 
-use sketchslam_api::{EventSubscription, SessionInfo};
+use sketchslam_api::{EventSubscription, SessionInfo, SketchSummary};
 use tokio::sync::mpsc;
 use tokio::task::{JoinHandle, JoinSet};
 
@@ -105,8 +105,9 @@ impl Vda5050Config {
     }
 }
 
-/// A session the registry just started, with its events from the start.
-pub type StartedSession = (SessionInfo, EventSubscription);
+/// A session the registry just started, with its drawing (if it maps on one) and its
+/// events from the start.
+pub type StartedSession = (SessionInfo, Option<SketchSummary>, EventSubscription);
 
 /// Gives each started session its MQTT bridge.
 pub struct Vda5050 {
@@ -140,11 +141,13 @@ impl Vda5050 {
             loop {
                 tokio::select! {
                     started = rx.recv() => match started {
-                        Some((info, events)) => {
+                        Some((info, drawing, events)) => {
+                            let frame = messages::DrawingFrame::of(&info, drawing.as_ref());
                             bridges.spawn(bridge::run_session(
                                 self.config.clone(),
                                 self.resolution_m,
                                 info,
+                                frame,
                                 events,
                             ));
                         }

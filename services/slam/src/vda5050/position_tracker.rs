@@ -4,7 +4,9 @@
 
 use sketchslam_api::{PoseResponse, SessionEvent};
 
-use super::messages::{AgvPosition, Velocity, agv_position, deviation_range_m, velocity_between};
+use super::messages::{
+    AgvPosition, DrawingFrame, Velocity, agv_position, deviation_range_m, velocity_between,
+};
 
 /// Follows one session's events.
 #[derive(Debug, Default)]
@@ -57,19 +59,21 @@ impl PositionTracker {
         }
     }
 
-    /// The position and velocity to send when a pose arrived since the last call; `None`
-    /// otherwise (or when the pose is not finite).
+    /// The position (in the `drawing`'s frame when given, else the map's) and velocity to
+    /// send when a pose arrived since the last call; `None` otherwise (or when the pose is
+    /// not finite, or has no place on the drawing).
     pub fn take_fresh(
         &mut self,
         resolution_m: f64,
         drift_per_m: f64,
+        drawing: Option<&DrawingFrame>,
     ) -> Option<(AgvPosition, Velocity)> {
         if !self.fresh {
             return None;
         }
         self.fresh = false;
         let deviation = deviation_range_m(resolution_m, drift_per_m, self.path_since_closure_m);
-        let position = agv_position(self.latest.as_ref()?, deviation)?;
+        let position = agv_position(self.latest.as_ref()?, deviation, drawing)?;
         Some((position, self.velocity))
     }
 }
@@ -95,15 +99,15 @@ mod tests {
     #[test]
     fn a_pose_is_sent_once_with_its_velocity_and_deviation() {
         let mut tracker = PositionTracker::new(0);
-        assert!(tracker.take_fresh(0.05, 0.02).is_none());
+        assert!(tracker.take_fresh(0.05, 0.02, None).is_none());
         tracker.on_event(&pose(0.0, 0.0, 0.0, 0.0));
         tracker.on_event(&pose(1.0, 0.5, 0.0, 0.0));
         tracker.on_event(&pose(2.0, 1.0, 0.0, 0.0));
-        let (position, velocity) = tracker.take_fresh(0.05, 0.02).unwrap();
+        let (position, velocity) = tracker.take_fresh(0.05, 0.02, None).unwrap();
         assert_eq!((position.x, position.y), (1.0, 0.0));
         assert!((velocity.vx - 0.5).abs() < 1e-12);
         // 1 m since the start: 0.05 + 0.02 · 1.
         assert!((position.deviation_range - 0.07).abs() < 1e-12);
-        assert!(tracker.take_fresh(0.05, 0.02).is_none(), "sent twice");
+        assert!(tracker.take_fresh(0.05, 0.02, None).is_none(), "sent twice");
     }
 }
