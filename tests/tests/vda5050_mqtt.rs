@@ -18,11 +18,10 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime};
 
 use anyhow::{Context, Result, bail, ensure};
-use common::{SERVICE_LOG, in_temp_dir, start_service, wait_session};
+use common::{SERVICE_LOG, in_temp_dir, paper_env1_sketch_a, start_service, wait_session};
 use rumqttc::{AsyncClient, Event, MqttOptions, Packet, QoS};
 use serde_json::Value;
 use sketchslam_api::MappingMethod;
-use sketchslam_simulator::scenario::Scenario;
 use sketchslam_tests::processes::{
     ChildGuard, binary, bundled_scenario, free_port, unique_prefix, workspace_root,
 };
@@ -242,13 +241,7 @@ async fn run(dir: &Path, data: &Path) -> Result<()> {
     // Robot vda-3 maps on sketch A, uploaded with its scale: its positions are on the
     // drawing (mapId the drawing's id), where the sketch session puts it.
     let drawn = "vda-3";
-    let scenario = Scenario::load(&bundled_scenario("paper-env1"))?;
-    let sketch_cfg = scenario
-        .sketches
-        .iter()
-        .find(|s| s.name == "A")
-        .context("sketch A")?
-        .clone();
+    let (_, sketch_cfg) = paper_env1_sketch_a()?;
     let drawing = client
         .upload_sketch_with_scale(
             std::fs::read(&sketch_cfg.image)?,
