@@ -20,6 +20,12 @@
 //!    `e = t2v(Z₂⁻¹ Ẑ₂)`. Two wrong matches rarely agree; a right loop seen from two
 //!    keyframes always does.
 //!
+//! 3. **Both ways** ([`two_way_distance_sq`]): the loop matched back — the older
+//!    keyframe's scan against the newer one's local map, `Z_r` (pose of `a` in `b`'s frame)
+//!    — must undo the loop `Z_f`: `e = t2v(Z_f Z_r) ≈ 0`. A match pulled off the place by
+//!    what only one side saw (a scan reaching past its reference, which the likelihood
+//!    field scores toward more overlap) is pulled the other way when the roles swap.
+//!
 //! # The chain's covariance
 //! Each sequential step `k` (keyframe `k−1 → k`, length `l_k`) adds independent noise of
 //! standard deviation `σ_m + σ_per_m·l_k` in position and `σ_rad` in heading, the same
@@ -188,6 +194,35 @@ pub fn pair_distance_sq(
     mahalanobis_sq(&e, &cov)
 }
 
+/// The adjoint of `t`: `t · Exp(δ) · t⁻¹ = Exp(Ad(t) δ)` for a small `δ = (x, y, θ)`,
+/// `Ad(t) = [[R, (t_y, −t_x)ᵀ], [0, 0, 1]]`.
+fn adjoint(t: &Pose2) -> Matrix3<f64> {
+    let (s, c) = t.heading_rad.sin_cos();
+    Matrix3::new(c, -s, t.y, s, c, -t.x, 0.0, 0.0, 1.0)
+}
+
+/// Test 3 of the module doc: the squared Mahalanobis distance of `e = t2v(Z_f Z_r)` from
+/// zero, for a loop `forward` (pose of the newer keyframe in the older's frame) and its
+/// match back `reverse` (the older in the newer's), each with the covariance of its error
+/// in its own frame (`Z · Exp(δ)`). Since `Z_f Exp(δ_f) Z_r Exp(δ_r) = Z_f Z_r Exp(Ad(Z_r⁻¹)
+/// δ_f) Exp(δ_r)`, `Σ_e = Ad(Z_r⁻¹) Σ_f Ad(Z_r⁻¹)ᵀ + Σ_r`. Compare with a χ² quantile of 3
+/// degrees of freedom. O(1).
+pub fn two_way_distance_sq(
+    forward: &Pose2,
+    forward_cov: &Matrix3<f64>,
+    reverse: &Pose2,
+    reverse_cov: &Matrix3<f64>,
+) -> f64 {
+    let round_trip = forward.compose(reverse);
+    let e = Vector3::new(
+        round_trip.x,
+        round_trip.y,
+        wrap_angle(round_trip.heading_rad),
+    );
+    let ad = adjoint(&reverse.inverse());
+    mahalanobis_sq(&e, &(ad * forward_cov * ad.transpose() + reverse_cov))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -265,5 +300,28 @@ mod tests {
         // A look-alike: keyframe 14 matched keyframe 2 as if it were there (3 m off).
         let wrong = loop_(2, 14, z, 0.05, 0.02);
         assert!(pair_distance_sq(&nodes, &a, &wrong, &NOISE) > 100.0);
+    }
+
+    #[test]
+    fn a_loop_matched_back_agrees_and_one_pulled_aside_does_not() {
+        let cov = Matrix3::from_diagonal(&Vector3::new(0.01, 0.01, 1e-4));
+        let forward = Pose2::new(2.0, 0.0, 0.0);
+        // The exact inverse: no residual.
+        let back = forward.inverse();
+        assert!(two_way_distance_sq(&forward, &cov, &back, &cov) < 1e-20);
+        // Matched back 0.3 m aside: e = (0, 0.3, 0). With Z_r⁻¹ = (2, −0.3, 0),
+        // Ad = [[1, 0, −0.3], [0, 1, −2], [0, 0, 1]], Σ_e = Ad Σ Adᵀ + Σ =
+        // [[0.020009, 6e-5, −3e-5], [6e-5, 0.0204, −2e-4], [−3e-5, −2e-4, 2e-4]]:
+        // eᵀ Σ_e⁻¹ e = 4.4555 (0.09 / 0.0204 = 4.41 without the heading's share).
+        let aside = Pose2::new(-2.0, 0.3, 0.0);
+        let d2 = two_way_distance_sq(&forward, &cov, &aside, &cov);
+        assert!((d2 - 4.455455).abs() < 1e-5, "{d2}");
+        // 1 m aside is far outside what the two matches' noise explains.
+        let far = Pose2::new(-2.0, 1.0, 0.0);
+        assert!(two_way_distance_sq(&forward, &cov, &far, &cov) > 11.34);
+        // A turned loop: forward (1, 0, 90°) and back its inverse (0, 1, −90°).
+        let turned = Pose2::new(1.0, 0.0, std::f64::consts::FRAC_PI_2);
+        let d2 = two_way_distance_sq(&turned, &cov, &turned.inverse(), &cov);
+        assert!(d2 < 1e-20, "{d2}");
     }
 }
