@@ -193,9 +193,10 @@ pub struct LoopClosureConfig {
     /// back), no world closed worse than open by more than 5 mm, but cheap corridor 23
     /// doubles (0.041 → 0.077 m, completeness 0.879 → 0.771) and cheap hall 24 loses
     /// completeness (0.970 → 0.852): a 12 m scanner's older view is often not in the newer
-    /// side's map, and the right loops refused with it held those corridors;
-    /// paper-env2 0.041 → 0.043 m. Over half as much route (`2 ·`): 7 better, 5 worse,
-    /// paper-env2 0.069 m.
+    /// side's map, and the right loops refused with it held those corridors. Shared:
+    /// school 0.077 → 0.034 m, paper-env2 0.041 → 0.043 m, paper-env1 0.004 m and Intel
+    /// 0.081 → 0.080 m unchanged, but CSAIL 0.049 → 0.183 m. Over half as much route
+    /// (`2 ·`): 7 better, 5 worse, paper-env2 0.069 m.
     pub two_way_check: bool,
 }
 
