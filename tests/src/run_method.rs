@@ -20,6 +20,9 @@ pub struct RunMethod {
     /// Where the LiDAR sits on the robot (the stream's, not the method's: set from the
     /// scenario by the runs; zero by default).
     pub lidar_mount: Pose2,
+    /// The map frame turned from the robot's start heading, radians
+    /// (`MapperConfig::frame_turn_rad`; methods without a drawing only). Zero by default.
+    pub frame_turn_rad: f64,
 }
 
 impl From<Method> for RunMethod {
@@ -28,6 +31,7 @@ impl From<Method> for RunMethod {
             method,
             loop_closure: true,
             lidar_mount: Pose2::IDENTITY,
+            frame_turn_rad: 0.0,
         }
     }
 }
@@ -40,6 +44,7 @@ impl RunMethod {
             seed,
             loop_closure: defaults.loop_closure.filter(|_| self.loop_closure),
             lidar_mount: self.lidar_mount,
+            frame_turn_rad: self.frame_turn_rad,
             ..defaults
         }
     }
@@ -72,6 +77,7 @@ impl FromStr for RunMethod {
             method,
             loop_closure,
             lidar_mount: Pose2::IDENTITY,
+            frame_turn_rad: 0.0,
         })
     }
 }

@@ -20,6 +20,10 @@
 //! the table, each score's median, 90th percentile and worst per method, the worlds where
 //! closing loops made the map worse than leaving them open (with `graph-open` in the
 //! methods), and the worst worlds' folders kept for a look.
+//!
+//! `--frame-turn-deg D` (in-process): the map frame of the methods without a drawing turned
+//! `D` degrees from the robot's start heading, to see how much a result owes to the map's
+//! axes lying along the walls.
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
@@ -90,6 +94,11 @@ struct Args {
     /// (by map error) and remove the others' (the worlds' folders stay).
     #[arg(long, default_value_t = 3)]
     keep_worst: usize,
+    /// Turn the map frame of the methods without a drawing by this many degrees from the
+    /// robot's start heading (in-process only): how much a result owes to the frame's
+    /// angle to the walls. The scores are taken after alignment, so they compare.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    frame_turn_deg: f64,
 }
 
 /// One run of the plan.
@@ -97,12 +106,20 @@ type PlannedRun = (Target, RunMethod, Option<String>);
 
 fn main() -> Result<()> {
     let args = Args::parse();
-    let methods: Vec<RunMethod> = args
+    let mut methods: Vec<RunMethod> = args
         .method
         .iter()
         .map(|m| m.parse().map_err(anyhow::Error::msg))
         .collect::<Result<_>>()?;
     let in_process = args.in_process || args.generated.is_some();
+    if args.frame_turn_deg != 0.0 {
+        if !(args.frame_turn_deg.is_finite() && in_process) {
+            bail!("--frame-turn-deg: a finite angle, in-process only (add --in-process)");
+        }
+        for m in &mut methods {
+            m.frame_turn_rad = args.frame_turn_deg.to_radians();
+        }
+    }
     if let Some(open) = methods.iter().find(|m| !m.loop_closure && !in_process) {
         bail!("{open}: loops can only be left open in-process (add --in-process)");
     }

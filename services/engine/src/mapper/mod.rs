@@ -171,19 +171,26 @@ impl Mapper {
     ) -> Result<Mapper, EngineError> {
         let drawing = prior.clone().filter(|_| method == Method::Sketch);
         let mount = LidarMount::new(config.lidar_mount);
+        if !config.frame_turn_rad.is_finite() {
+            return Err(EngineError::InvalidParameter {
+                name: "frame_turn_rad",
+                reason: "must be finite".into(),
+            });
+        }
+        let turned = Pose2::new(0.0, 0.0, config.frame_turn_rad);
         let (front_end, start_pose, back_end) = match method {
-            Method::Odometry => (FrontEnd::Odometry, Pose2::IDENTITY, None),
+            Method::Odometry => (FrontEnd::Odometry, turned, None),
             Method::Icp => (
                 FrontEnd::Icp {
                     config: config.icp,
                     previous_points: None,
                 },
-                Pose2::IDENTITY,
+                turned,
                 None,
             ),
             Method::Graph => (
                 FrontEnd::Graph(Box::new(KeyframeIcp::new(&config))),
-                Pose2::IDENTITY,
+                turned,
                 BackEnd::new(&config, None),
             ),
             Method::Sketch => {
@@ -736,6 +743,41 @@ mod tests {
         };
         m.on_scan(&lying);
         assert_eq!(m.health().scans_skipped, 1);
+    }
+
+    #[test]
+    fn a_turned_frame_turns_the_trajectory_and_nothing_else() {
+        // Dead reckoning through the laps, once in the plain frame and once turned 0.3 rad:
+        // every pose is the plain one turned about the start.
+        let turn = 0.3;
+        let turned_config = MapperConfig {
+            frame_turn_rad: turn,
+            ..MapperConfig::default()
+        };
+        let (plain, _) = drive_laps(Method::Odometry, MapperConfig::default(), |_, _| {});
+        let (turned, _) = drive_laps(Method::Odometry, turned_config.clone(), |_, _| {});
+        let rotation = Pose2::new(0.0, 0.0, turn);
+        let (a, b) = (plain.trajectory(), turned.trajectory());
+        assert_eq!(a.len(), b.len());
+        for (p, q) in a.iter().zip(b.iter()) {
+            let expected = rotation.compose(&p.pose);
+            assert!(
+                expected.position().distance(&q.pose.position()) < 1e-9,
+                "{q:?}"
+            );
+            assert!(
+                sketchslam_types::wrap_angle(expected.heading_rad - q.pose.heading_rad).abs()
+                    < 1e-9
+            );
+        }
+        // A graph session starts facing the turn; a non-finite turn is refused.
+        let graph = Mapper::new(Method::Graph, None, turned_config).unwrap();
+        assert!((graph.pose().map.heading_rad - turn).abs() < 1e-12);
+        let bad = MapperConfig {
+            frame_turn_rad: f64::NAN,
+            ..MapperConfig::default()
+        };
+        assert!(Mapper::new(Method::Graph, None, bad).is_err());
     }
 
     #[test]
