@@ -735,8 +735,7 @@ impl LoopCloser {
                 c.plateau_fraction,
             ),
         };
-        let plateau =
-            nalgebra::Matrix2::new(plateau[0][0], plateau[0][1], plateau[1][0], plateau[1][1]);
+        let plateau = as_matrix(plateau);
         let sigma_sq = c.loop_sigma_m * c.loop_sigma_m;
         let loop_noise = nalgebra::Matrix2::identity() * sigma_sq;
         let weakest_var = (plateau + loop_noise).symmetric_eigenvalues().max();
@@ -797,10 +796,11 @@ impl LoopCloser {
 }
 
 impl LoopCloser {
-    /// Test 3 of [`crate::back_end::closure_consistency`]: the older keyframe's scan matched against the
-    /// local map of the newer one and the keyframes before it (as many as a local map
-    /// holds on both sides), from the loop's inverse, in the same `window`; true when
-    /// that match scores and undoes the loop within `consistency_chi2`.
+    /// Test 3 of [`crate::back_end::closure_consistency`]: the older keyframe's scan
+    /// matched against the local map of the newer one and the `4 · local_map_keyframes`
+    /// keyframes before it (twice what a local map spans, since the newer side has no
+    /// keyframes after it), from the loop's inverse, in the same `window`; true when that
+    /// match scores and undoes the loop within `consistency_chi2`.
     fn matches_back(&self, found: &MatchedLoop, window: &SearchWindow) -> bool {
         let c = &self.config;
         let (old, new) = (found.hypothesis.from, found.hypothesis.to);
@@ -810,8 +810,8 @@ impl LoopCloser {
             self.travel_m[k] - self.travel_m[old] >= 0.5 * c.min_travel_m
         });
         let scan = &self.points[old];
-        // Where the newer side saw too little of the older keyframe's view to match it,
-        // there is no evidence either way: the loop goes on to the other tests.
+        // A newer side that saw too little of the older keyframe's view to match it back
+        // refuses the loop, as a match back that scores too low does.
         if local.len() < 20 || scan.len() < 20 {
             return false;
         }
@@ -825,10 +825,12 @@ impl LoopCloser {
             return false;
         }
         let reverse = self.refined(&local, scan, back.pose);
-        let plateau =
-            field.translation_covariance(&query, &back.pose, window.linear_m, c.plateau_fraction);
-        let plateau =
-            nalgebra::Matrix2::new(plateau[0][0], plateau[0][1], plateau[1][0], plateau[1][1]);
+        let plateau = as_matrix(field.translation_covariance(
+            &query,
+            &back.pose,
+            window.linear_m,
+            c.plateau_fraction,
+        ));
         let loop_noise = nalgebra::Matrix2::identity() * (c.loop_sigma_m * c.loop_sigma_m);
         let Some(reverse_cov) = loop_information(plateau + loop_noise, reverse.heading_rad, c)
             .and_then(|info| info.try_inverse())
@@ -856,6 +858,12 @@ impl LoopCloser {
             && moved.heading_rad.abs() < 2f64.to_radians();
         if agrees { refined.pose } else { found }
     }
+}
+
+/// A plateau's covariance as [`LikelihoodField::translation_covariance`] gives it (rows
+/// of x and y), as a matrix.
+fn as_matrix(c: [[f64; 2]; 2]) -> nalgebra::Matrix2<f64> {
+    nalgebra::Matrix2::new(c[0][0], c[0][1], c[1][0], c[1][1])
 }
 
 /// The box the finite `points` cover when placed at `guess` (and `guess` itself), widened
