@@ -373,10 +373,12 @@ impl Backend for Registry {
             return Err(ApiError::Unavailable("the service is shutting down".into()));
         }
         // Cheap checks first, so a bad request never touches the robot's services.
+        let mut drawing = None;
         if request.method == MappingMethod::Sketch {
-            let drawing = self
+            let info = self
                 .sketches
                 .info(request.sketch_id.as_deref().unwrap_or_default())?;
+            let drawing = drawing.insert(info.summary());
             // No scale given: the one the drawing declared at upload.
             request.meters_per_pixel = request.meters_per_pixel.or(drawing.meters_per_pixel);
             if request.meters_per_pixel.is_none() {
@@ -430,11 +432,6 @@ impl Backend for Registry {
         let info = session.info();
         if let Some(observer) = lock(&self.observer).as_ref() {
             // From its first event (kept since the start), not from now.
-            let drawing = info
-                .sketch_id
-                .as_deref()
-                .and_then(|id| self.sketches.info(id).ok())
-                .map(|d| d.summary());
             let _ = observer.send((info.clone(), drawing, session.subscribe(Some(0))));
         }
         sessions.entries.insert(id, Entry::Live(session.clone()));
