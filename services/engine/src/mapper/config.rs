@@ -67,6 +67,10 @@ pub struct MapperConfig {
     /// this share of their difference per scan — a drawn wall a few degrees off then
     /// bends the map less.
     pub sketch_heading_gain: f64,
+    /// With a gain below 1: heading differences within this band are taken as the
+    /// drawing's own angular error and ignored, radians (a person draws a wall's direction
+    /// within a few degrees).
+    pub sketch_heading_deadband_rad: f64,
     /// The map frame of a session without a drawing (`odometry`, `icp`, `graph`) is the
     /// robot's start pose turned by this much, radians: at 0 the map's x axis is the
     /// robot's start heading. A measurement knob: how a result depends on the frame's
@@ -74,10 +78,6 @@ pub struct MapperConfig {
     /// 3° changes `graph` on paper-env2 from 0.041 to 0.008 m. A `sketch` session's frame
     /// is the drawing's and ignores it.
     pub frame_turn_rad: f64,
-    /// With a gain below 1: heading differences within this band are taken as the
-    /// drawing's own angular error and ignored, radians (a person draws a wall's direction
-    /// within a few degrees).
-    pub sketch_heading_deadband_rad: f64,
     /// Loop closure of the `graph` and `sketch` methods; `None` keeps their front ends
     /// alone. `odometry` and `icp` never close loops (`icp` is the paper's frame-to-frame
     /// ICP-SLAM).
@@ -103,8 +103,8 @@ impl Default for MapperConfig {
             icp_min_constraining_points: None,
             odometry_noise: Some(OdometryNoise::default()),
             sketch_heading_gain: 0.05,
-            frame_turn_rad: 0.0,
             sketch_heading_deadband_rad: 4f64.to_radians(),
+            frame_turn_rad: 0.0,
             loop_closure: Some(LoopClosureConfig::default()),
             registration: FitConfig::default(),
             seed: 1,

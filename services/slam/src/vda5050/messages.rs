@@ -103,11 +103,11 @@ pub struct Connection {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct AgvPosition {
-    /// Map-frame x, meters.
+    /// x in the frame of `map_id`, meters.
     pub x: f64,
-    /// Map-frame y, meters.
+    /// y in the frame of `map_id`, meters.
     pub y: f64,
-    /// Map-frame heading, radians in [-π, π].
+    /// Heading in the frame of `map_id`, radians in [-π, π].
     pub theta: f64,
     /// The map the position is in: for a session on a drawing the drawing's id (its frame:
     /// [`DrawingFrame`]), otherwise the session id (the map `GET /v1/sessions/{id}/map`
