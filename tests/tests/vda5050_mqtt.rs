@@ -200,6 +200,19 @@ fn check_all(got: &[Received], map_ids: &BTreeMap<&str, String>) -> Result<()> {
     Ok(())
 }
 
+/// The simulator publishing `max_scans` of paper-env1 in real time as `robot` on `prefix`.
+fn simulate_paper_env1(robot: &str, prefix: &str, max_scans: u64) -> Result<ChildGuard> {
+    let mut cmd = Command::new(binary("sketchslam-simulator", "simulator")?);
+    cmd.arg("run")
+        .arg(bundled_scenario("paper-env1"))
+        .args(["--robot", robot, "--rate", "1.0", "--quiet"])
+        .args(["--ipc-prefix", prefix])
+        .args(["--max-scans", &max_scans.to_string()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null());
+    ChildGuard::spawn("simulator", &mut cmd)
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn vda5050_messages_follow_the_schemas_and_outlive_a_broker_restart() -> Result<()> {
     in_temp_dir(
@@ -258,27 +271,8 @@ async fn run(dir: &Path, data: &Path) -> Result<()> {
     );
     let mut map_ids = sessions.clone();
     map_ids.insert(drawn, drawing.id.clone());
-    let exe = binary("sketchslam-simulator", "simulator")?;
-    let mut drawn_sim = Command::new(&exe);
-    drawn_sim
-        .arg("run")
-        .arg(bundled_scenario("paper-env1"))
-        .args(["--robot", drawn, "--rate", "1.0", "--quiet"])
-        .args(["--ipc-prefix", &prefix])
-        .args(["--max-scans", "200"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null());
-    let _drawn_sim = ChildGuard::spawn("simulator", &mut drawn_sim)?;
-    let mut sim_cmd = Command::new(exe);
-    sim_cmd
-        .arg("run")
-        .arg(bundled_scenario("paper-env1"))
-        .args(["--robot", robot, "--rate", "1.0", "--quiet"])
-        .args(["--ipc-prefix", &prefix])
-        .args(["--max-scans", "1200"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null());
-    let _sim = ChildGuard::spawn("simulator", &mut sim_cmd)?;
+    let _drawn_sim = simulate_paper_env1(drawn, &prefix, 200)?;
+    let _sim = simulate_paper_env1(robot, &prefix, 1200)?;
 
     let online_of_both = |got: &[Received]| {
         got.iter().any(|r| is_state(r, robot, "ONLINE"))
