@@ -28,6 +28,7 @@
 
 use crate::mapping::grid::OccupancyGrid;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use nalgebra::Matrix2;
 use sketchslam_types::{Point2, Pose2};
 use std::num::NonZero;
 
@@ -123,6 +124,53 @@ impl IcpResult {
         };
         let v = eig.eigenvectors.column(k);
         (Point2::new(v[0], v[1]), eig.eigenvalues[k].max(0.0))
+    }
+
+    /// The pose's covariance under independent residuals of the converged RMS,
+    /// `Σ = rms² H⁻¹` in (x, y, heading), translation in the reference frame (Censi, "An
+    /// accurate closed-form estimate of ICP's covariance", ICRA 2007, takes this as the
+    /// first term; it underestimates where the residuals are correlated). Each
+    /// translation eigen-direction of `H` with eigenvalue below `min_points` (a
+    /// corridor's axis: module doc of [`super::motion_prior`]) is not measured and gets at
+    /// least `unmeasured_m2` (the caller's prior along it, say the odometry's). The
+    /// heading variance is `None` in [`IcpMode::TranslationOnly`] (the heading was held,
+    /// `H`'s heading row is zero) and when `H` is singular there. O(1).
+    pub fn covariance(&self, min_points: f64, unmeasured_m2: f64) -> (Matrix2<f64>, Option<f64>) {
+        let rms2 = self.rms_m * self.rms_m;
+        let h = &self.normal_matrix;
+        let h_tt = h.fixed_view::<2, 2>(0, 0).into_owned();
+        let eig = h_tt.symmetric_eigen();
+        let measured = eig.eigenvalues.iter().all(|&l| l >= min_points);
+        let full = if h[(2, 2)] > 0.0 && measured {
+            h.try_inverse()
+                .filter(|inv| inv[(2, 2)].is_finite() && inv[(2, 2)] > 0.0)
+        } else {
+            None
+        };
+        if let Some(inv) = full {
+            // Heading and translation estimated together: the marginal of each.
+            return (
+                rms2 * inv.fixed_view::<2, 2>(0, 0).into_owned(),
+                Some(rms2 * inv[(2, 2)]),
+            );
+        }
+        let mut cov = Matrix2::zeros();
+        for k in 0..2 {
+            let v = eig.eigenvectors.column(k).into_owned();
+            let l = eig.eigenvalues[k];
+            let var = if l >= min_points {
+                rms2 / l
+            } else if l > 0.0 {
+                (rms2 / l).max(unmeasured_m2)
+            } else {
+                unmeasured_m2
+            };
+            cov += var * v * v.transpose();
+        }
+        // The heading's own information, the translation held: a lower bound of its variance
+        // (the coupling is dropped with the unmeasured directions).
+        let heading = (h[(2, 2)] > 0.0).then(|| rms2 / h[(2, 2)]);
+        (cov, heading)
     }
 }
 
@@ -448,5 +496,47 @@ fn sanitize(c: IcpConfig) -> IcpConfig {
         convergence_translation_m: pos(c.convergence_translation_m, d.convergence_translation_m),
         convergence_rotation_rad: pos(c.convergence_rotation_rad, d.convergence_rotation_rad),
         min_inliers: c.min_inliers.max(3),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Matrix3, Vector3};
+
+    fn result(h: Vector3<f64>, rms_m: f64) -> IcpResult {
+        IcpResult {
+            pose: Pose2::IDENTITY,
+            iterations: 5,
+            inliers: 100,
+            rms_m,
+            converged: true,
+            normal_matrix: Matrix3::from_diagonal(&h),
+        }
+    }
+
+    #[test]
+    fn covariance_of_a_room_is_rms_squared_over_the_normal_matrix() {
+        // 100 returns face x, 400 face y, heading information 50: rms 2 cm gives
+        // σ²_x = 4e-4 / 100, σ²_y = 4e-4 / 400, σ²_θ = 4e-4 / 50.
+        let (xy, heading) = result(Vector3::new(100.0, 400.0, 50.0), 0.02).covariance(20.0, 0.01);
+        assert!((xy[(0, 0)] - 4e-6).abs() < 1e-15 && (xy[(1, 1)] - 1e-6).abs() < 1e-15);
+        assert!(xy[(0, 1)].abs() < 1e-15);
+        assert!((heading.unwrap() - 8e-6).abs() < 1e-15);
+    }
+
+    #[test]
+    fn an_unmeasured_direction_gets_the_prior_and_a_held_heading_none() {
+        // A corridor along x: 3 returns face x. Along x the prior 0.01 m² (it exceeds
+        // 4e-4 / 3); across, 4e-4 / 500; the heading from its own information, 4e-4 / 100.
+        let (xy, heading) = result(Vector3::new(3.0, 500.0, 100.0), 0.02).covariance(20.0, 0.01);
+        assert!((xy[(0, 0)] - 0.01).abs() < 1e-12 && (xy[(1, 1)] - 8e-7).abs() < 1e-15);
+        assert!((heading.unwrap() - 4e-6).abs() < 1e-15);
+        // A prior below what ICP itself claims does not tighten it: 4e-4 / 3.
+        let (xy, _) = result(Vector3::new(3.0, 500.0, 100.0), 0.02).covariance(20.0, 1e-6);
+        assert!((xy[(0, 0)] - 4e-4 / 3.0).abs() < 1e-15);
+        // Translation only: the heading row is zero, nothing is known of the heading.
+        let (_, heading) = result(Vector3::new(100.0, 400.0, 0.0), 0.02).covariance(20.0, 0.01);
+        assert_eq!(heading, None);
     }
 }
