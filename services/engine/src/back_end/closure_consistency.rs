@@ -28,11 +28,13 @@
 //!
 //! # The chain's covariance
 //! Each sequential step `k` (keyframe `k−1 → k`, length `l_k`) adds independent noise of
-//! standard deviation `σ_m + σ_per_m·l_k` in position and `σ_rad` in heading, the same
-//! figures that weigh the graph's sequential edges. A heading error at step `k` swings the
-//! chain's end about keyframe `k`, so to first order the end's position variance is
+//! position variance `σ²_k` and heading variance `σ²_θk`, the same figures that weigh the
+//! graph's sequential edges: a-priori `σ_k = σ_m + σ_per_m·l_k` and `σ_θk = σ_rad`
+//! ([`StepNoise`]), or what the front end measured on that step ([`MeasuredSteps`]). A
+//! heading error at step `k` swings the chain's end about keyframe `k`, so to first order
+//! the end's position variance is
 //!
-//! `σ²_pos = Σ_k (σ_m + σ_per_m l_k)² + σ²_rad |p_end − p_k|²`,   `σ²_θ = Σ_k σ²_rad`
+//! `σ²_pos = Σ_k σ²_k + σ²_θk |p_end − p_k|²`,   `σ²_θ = Σ_k σ²_θk`
 //!
 //! (isotropic: the direction of the swing is dropped, which errs towards accepting). Cost:
 //! O(|to − from|) per chain.
@@ -101,26 +103,62 @@ impl ChainVariance {
     }
 }
 
+/// The noise of each sequential step, as [`chain_variance`] reads it: the a-priori model
+/// ([`StepNoise`]) or what the front end measured per step ([`MeasuredSteps`]).
+pub trait StepVariance {
+    /// Position variance (isotropic) and heading variance of step `k` (keyframe `k − 1 → k`),
+    /// `step_m` long.
+    fn step(&self, k: usize, step_m: f64) -> ChainVariance;
+}
+
+impl StepVariance for StepNoise {
+    fn step(&self, _k: usize, step_m: f64) -> ChainVariance {
+        let sigma_m = self.sigma_m + self.sigma_per_m * step_m;
+        ChainVariance {
+            position_m2: sigma_m * sigma_m,
+            heading_rad2: self.sigma_rad * self.sigma_rad,
+        }
+    }
+}
+
+/// Each step's variance as the front end measured it, indexed by the step's newer
+/// keyframe (entry 0 unused); a step beyond the slice falls back to `model`.
+#[derive(Debug, Clone, Copy)]
+pub struct MeasuredSteps<'a> {
+    /// Variance of step `k` at index `k`.
+    pub steps: &'a [ChainVariance],
+    /// For steps not measured.
+    pub model: StepNoise,
+}
+
+impl StepVariance for MeasuredSteps<'_> {
+    fn step(&self, k: usize, step_m: f64) -> ChainVariance {
+        match self.steps.get(k) {
+            Some(v) => *v,
+            None => self.model.step(k, step_m),
+        }
+    }
+}
+
 /// The variance the sequential steps between keyframes `a` and `b` (either order) add to
 /// a point at `lever_end` carried along them: the module doc's sum over the steps
-/// `min(a, b) + 1 ..= max(a, b)`, with `nodes` the keyframes' current estimates. O(|b − a|).
+/// `min(a, b) + 1 ..= max(a, b)`, with `nodes` the keyframes' current estimates and each
+/// step's own position and heading variance from `noise`. O(|b − a|).
 pub fn chain_variance(
     nodes: &[Pose2],
     a: usize,
     b: usize,
-    noise: &StepNoise,
+    noise: &dyn StepVariance,
     lever_end: Point2,
 ) -> ChainVariance {
     let (lo, hi) = (a.min(b), a.max(b).min(nodes.len().saturating_sub(1)));
-    let rad2 = noise.sigma_rad * noise.sigma_rad;
     let mut v = ChainVariance::ZERO;
     for k in lo + 1..=hi {
         let p = nodes[k].position();
-        let step_m = p.distance(&nodes[k - 1].position());
-        let sigma_m = noise.sigma_m + noise.sigma_per_m * step_m;
+        let step = noise.step(k, p.distance(&nodes[k - 1].position()));
         let lever_m = lever_end.distance(&p);
-        v.position_m2 += sigma_m * sigma_m + rad2 * lever_m * lever_m;
-        v.heading_rad2 += rad2;
+        v.position_m2 += step.position_m2 + step.heading_rad2 * lever_m * lever_m;
+        v.heading_rad2 += step.heading_rad2;
     }
     v
 }
@@ -157,7 +195,7 @@ pub fn pair_distance_sq(
     nodes: &[Pose2],
     first: &LoopHypothesis,
     second: &LoopHypothesis,
-    noise: &StepNoise,
+    noise: &dyn StepVariance,
 ) -> f64 {
     let (c1, c2) = if first.to <= second.to {
         (first, second)
@@ -264,6 +302,32 @@ mod tests {
             chain_variance(&nodes, 2, 2, &NOISE, Point2::new(0.0, 0.0)),
             ChainVariance::ZERO
         );
+    }
+
+    #[test]
+    fn measured_steps_replace_the_model_where_given() {
+        // Steps 1 and 2 measured, step 3 beyond the slice: the model's 0.02² and 0.01².
+        let steps = [
+            ChainVariance::ZERO,
+            ChainVariance {
+                position_m2: 1e-4,
+                heading_rad2: 4e-4,
+            },
+            ChainVariance {
+                position_m2: 9e-4,
+                heading_rad2: 0.0,
+            },
+        ];
+        let measured = MeasuredSteps {
+            steps: &steps,
+            model: NOISE,
+        };
+        let nodes = straight(4);
+        // Levers to x = 3: 2, 1 and 0 m. Position 1e-4 + 4e-4·2² + 9e-4 + 0 + 0.02² + 1e-4·0,
+        // heading 4e-4 + 0 + 1e-4.
+        let v = chain_variance(&nodes, 0, 3, &measured, nodes[3].position());
+        assert!((v.position_m2 - 0.003).abs() < 1e-12, "{v:?}");
+        assert!((v.heading_rad2 - 0.0005).abs() < 1e-12, "{v:?}");
     }
 
     #[test]

@@ -61,9 +61,12 @@ impl FrontEnd {
                 FrontEndOutput::pose(pose)
             }
             FrontEnd::Graph(matcher) => {
-                let pose = matcher.align(input, input.predicted, IcpMode::Full);
+                let aligned = matcher.align(input, input.predicted, IcpMode::Full);
                 matcher.done(&input.frame.points);
-                FrontEndOutput::pose(pose)
+                FrontEndOutput {
+                    covariance: Some(aligned.covariance),
+                    ..FrontEndOutput::pose(aligned.pose)
+                }
             }
             FrontEnd::Sketch(front_end) => front_end.track(input),
         }

@@ -6,6 +6,7 @@ use crate::lines::ransac::ScanLine;
 use crate::mapping::grid::OccupancyGrid;
 use crate::scan_matching::odometry_noise::OdometryPath;
 use crate::sketch::SketchPose;
+use nalgebra::Matrix3;
 use sketchslam_types::Pose2;
 
 /// Everything the front end needs for one scan.
@@ -46,6 +47,10 @@ pub struct SketchReport {
 pub struct FrontEndOutput {
     /// The scan's map pose (may be non-finite: the mapper then skips the scan).
     pub pose: Pose2,
+    /// How far off `pose` can be relative to the map the front end matched against, in
+    /// (x, y, heading), translation on the map's axes, when the front end knows
+    /// (keyframe ICP: [`super::keyframe_icp::Aligned`]).
+    pub covariance: Option<Matrix3<f64>>,
     /// The scan's RANSAC lines (robot frame) when the front end extracted them, so the
     /// back end does not extract them a second time.
     pub scan_lines: Option<Vec<ScanLine>>,
@@ -57,6 +62,7 @@ impl FrontEndOutput {
     pub(super) fn pose(pose: Pose2) -> Self {
         Self {
             pose,
+            covariance: None,
             scan_lines: None,
             sketch: None,
         }

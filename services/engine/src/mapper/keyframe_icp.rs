@@ -31,9 +31,10 @@ use crate::mapping::grid::OccupancyGrid;
 use crate::scan_matching::correlative::{
     CorrelativeConfig, LikelihoodField, SearchWindow, voxel_filter,
 };
-use crate::scan_matching::icp::{Icp, IcpConfig, IcpMode};
-use crate::scan_matching::motion_prior::hold_unmeasured_directions;
+use crate::scan_matching::icp::{Icp, IcpConfig, IcpMode, IcpResult};
+use crate::scan_matching::motion_prior::{DEFAULT_MIN_POINTS, hold_unmeasured_directions};
 use crate::scan_matching::odometry_noise::{OdometryNoise, OdometryPath};
+use nalgebra::{Matrix3, Vector3};
 use sketchslam_types::{Point2, Pose2};
 use std::collections::VecDeque;
 
@@ -58,6 +59,25 @@ const MAX_SEARCH_RAD: f64 = std::f64::consts::FRAC_PI_4;
 pub const REFERENCE_REFRESH_SCANS: usize = 5;
 /// ...or once the robot is this far from where it was built, meters.
 pub const REFERENCE_REFRESH_M: f64 = 1.0;
+
+/// A scan's map pose from [`KeyframeIcp::align`] and how far off it can be.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Aligned {
+    /// The scan's pose, map frame.
+    pub pose: Pose2,
+    /// Its covariance in (x, y, heading), translation on the map's axes: ICP's
+    /// ([`IcpResult::covariance`]), with the odometry's over the path since the last scan
+    /// along the directions the scan does not measure, for a heading ICP held, and for a
+    /// scan ICP did not place.
+    pub covariance: Matrix3<f64>,
+}
+
+/// What [`KeyframeIcp::align_pose`] made of a scan: the pose taken and, when ICP
+/// converged, its result.
+struct Matched {
+    pose: Pose2,
+    icp: Option<IcpResult>,
+}
 
 /// Point-to-line ICP against a held reference.
 pub(super) struct KeyframeIcp {
@@ -138,14 +158,49 @@ impl KeyframeIcp {
     }
 
     /// Point-to-line ICP of the scan against the reference (map frame), from `guess`;
-    /// the guess itself when there is too little to align with or ICP does not converge.
-    pub(super) fn align(&mut self, input: &FrontEndInput, guess: Pose2, mode: IcpMode) -> Pose2 {
+    /// the guess itself when there is too little to align with or ICP does not converge,
+    /// with the odometry's covariance over the path since the last scan.
+    pub(super) fn align(&mut self, input: &FrontEndInput, guess: Pose2, mode: IcpMode) -> Aligned {
+        let noise = self.guess_noise.unwrap_or_default();
+        let odometry = noise.sigma(&input.path);
+        let odometry_only = |pose| Aligned {
+            pose,
+            covariance: Matrix3::from_diagonal(&Vector3::new(
+                odometry.position_m.powi(2),
+                odometry.position_m.powi(2),
+                odometry.heading_rad.powi(2),
+            )),
+        };
+        let (pose, icp) = match self.align_pose(input, guess, mode) {
+            None => return odometry_only(guess),
+            Some(Matched { pose, icp: None }) => return odometry_only(pose),
+            Some(Matched {
+                pose,
+                icp: Some(icp),
+            }) => (pose, icp),
+        };
+        let min_points = self.min_constraining_points.unwrap_or(DEFAULT_MIN_POINTS);
+        let (xy, heading_rad2) = icp.covariance(min_points, odometry.position_m.powi(2));
+        let mut covariance = Matrix3::zeros();
+        covariance.fixed_view_mut::<2, 2>(0, 0).copy_from(&xy);
+        covariance[(2, 2)] = heading_rad2.unwrap_or(odometry.heading_rad.powi(2));
+        Aligned { pose, covariance }
+    }
+
+    /// [`KeyframeIcp::align`]'s pose and the ICP result it came from; `None` when the guess
+    /// stands (too little to align with).
+    fn align_pose(
+        &mut self,
+        input: &FrontEndInput,
+        guess: Pose2,
+        mode: IcpMode,
+    ) -> Option<Matched> {
         if let Some(last) = self.last_guess.replace(guess) {
             self.route_m += last.position().distance(&guess.position());
         }
         let points = &input.frame.points[..];
         if points.len() < 10 {
-            return guess;
+            return None;
         }
         // The back end moved the map since the reference was built.
         let moved = self
@@ -189,10 +244,10 @@ impl KeyframeIcp {
             self.scans_since_reference = 0;
         }
         let Some((icp, _, _)) = &self.reference else {
-            return guess;
+            return None;
         };
         if icp.len() < 10 {
-            return guess;
+            return None;
         }
         let guess = match self.guess_noise {
             Some(noise) => search_far_guess(
@@ -208,12 +263,20 @@ impl KeyframeIcp {
         };
         let result = icp.align(points, guess, mode);
         if !(result.converged && result.pose.is_finite()) {
-            return guess;
+            // (The far guess's search placed it, when one ran.)
+            return Some(Matched {
+                pose: guess,
+                icp: None,
+            });
         }
-        match self.min_constraining_points {
+        let pose = match self.min_constraining_points {
             Some(min_points) => hold_unmeasured_directions(&result, &guess, min_points).pose,
             None => result.pose,
-        }
+        };
+        Some(Matched {
+            pose,
+            icp: Some(result),
+        })
     }
 }
 

@@ -72,6 +72,7 @@ use crate::scan_matching::odometry_noise::OdometryPath;
 use crate::sketch::SketchPose;
 use front_end::FrontEnd;
 use keyframe_icp::KeyframeIcp;
+use nalgebra::Matrix3;
 use sketch_front_end::SketchFrontEnd;
 use sketchslam_types::{Odometry, Point2, Pose2, Scan, SensorEvent};
 use std::borrow::Cow;
@@ -86,6 +87,9 @@ struct BackEnd {
     heading_prior: Option<WallHeadingPrior>,
     /// The stamp of each keyframe's scan, by keyframe index.
     keyframe_stamps_ns: Vec<u64>,
+    /// The front end's covariances of the scans since the last keyframe, summed (map axes):
+    /// the next sequential edge's, when the front end reports them.
+    step_covariance: Option<Matrix3<f64>>,
 }
 
 impl BackEnd {
@@ -106,6 +110,7 @@ impl BackEnd {
             closer: LoopCloser::new(closure),
             heading_prior,
             keyframe_stamps_ns: Vec::new(),
+            step_covariance: None,
         })
     }
 }
@@ -374,6 +379,9 @@ impl Mapper {
         let Some(back_end) = &mut self.back_end else {
             return pose;
         };
+        if let Some(cov) = output.covariance {
+            *back_end.step_covariance.get_or_insert_with(Matrix3::zeros) += cov;
+        }
         if !back_end.closer.wants_keyframe(&pose) {
             return pose;
         }
@@ -383,9 +391,13 @@ impl Mapper {
             }
             _ => None,
         };
-        let outcome = back_end
-            .closer
-            .add_keyframe(pose, &frame.points, heading_prior);
+        let step_covariance = back_end.step_covariance.take();
+        let outcome = back_end.closer.add_keyframe_with_step(
+            pose,
+            &frame.points,
+            heading_prior,
+            step_covariance,
+        );
         if outcome.index == back_end.keyframe_stamps_ns.len() {
             back_end.keyframe_stamps_ns.push(frame.scan.header.stamp_ns);
         }

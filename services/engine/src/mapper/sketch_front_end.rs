@@ -226,7 +226,8 @@ impl SketchFrontEnd {
         } else {
             IcpMode::Full
         };
-        let aligned = self.matcher.align(input, guess, mode);
+        let matched = self.matcher.align(input, guess, mode);
+        let aligned = matched.pose;
         let map_pose = match delta_rad {
             // eq. (5)'s difference measured at the prediction, re-referred to the ICP heading.
             Some(d) if !hard => {
@@ -246,6 +247,7 @@ impl SketchFrontEnd {
         self.matcher.done(points);
         FrontEndOutput {
             pose: map_pose,
+            covariance: Some(matched.covariance),
             scan_lines,
             sketch: Some(SketchReport {
                 sketch_pose,
