@@ -127,7 +127,7 @@ pub struct LoopClosureConfig {
     pub sequential_sigma_rad: f64,
     /// Where a sequential edge's covariance comes from: the a-priori figures above on
     /// every step, or the front end's own covariance of the step when it gave one
-    /// ([`SequentialNoise`]). Default `APriori`; `FrontEnd` measured 2026-12-04 (`graph`, release,
+    /// ([`SequentialNoise`]). Default `FrontEnd`, measured 2026-12-04 (`graph`, release,
     /// in-process) against `APriori`: on the 30 generated worlds map error median / p90 /
     /// worst 0.012 / 0.050 / 0.073 → 0.014 / 0.036 / 0.078 m, worlds closing worse than
     /// open 3 → 0; with the frame turned 10° 0.013 / 0.062 / 0.112 → 0.011 / 0.051 / 0.088
@@ -240,7 +240,7 @@ impl Default for LoopClosureConfig {
             sequential_sigma_m: 0.02,
             sequential_sigma_per_m: 0.02,
             sequential_sigma_rad: 0.5f64.to_radians(),
-            sequential_noise: SequentialNoise::APriori,
+            sequential_noise: SequentialNoise::FrontEnd,
             loop_sigma_m: 0.05,
             loop_sigma_rad: 1f64.to_radians(),
             loop_huber: 2.0,
