@@ -111,9 +111,16 @@ pub trait StepVariance {
     fn step(&self, k: usize, step_m: f64) -> ChainVariance;
 }
 
+impl StepNoise {
+    /// Position standard deviation of a step `step_m` long: `σ_m + σ_per_m · l`.
+    pub fn position_sigma_m(&self, step_m: f64) -> f64 {
+        self.sigma_m + self.sigma_per_m * step_m
+    }
+}
+
 impl StepVariance for StepNoise {
     fn step(&self, _k: usize, step_m: f64) -> ChainVariance {
-        let sigma_m = self.sigma_m + self.sigma_per_m * step_m;
+        let sigma_m = self.position_sigma_m(step_m);
         ChainVariance {
             position_m2: sigma_m * sigma_m,
             heading_rad2: self.sigma_rad * self.sigma_rad,

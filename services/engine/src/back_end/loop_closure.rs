@@ -432,10 +432,10 @@ impl LoopCloser {
                 let (information, variance) = match measured {
                     Some(m) => m,
                     None => {
-                        let sigma_m = c.sequential_sigma_m + c.sequential_sigma_per_m * length_m;
+                        let model = self.a_priori_noise();
                         (
-                            information(sigma_m, c.sequential_sigma_rad),
-                            self.step_noise().step(index, length_m),
+                            information(model.position_sigma_m(length_m), model.sigma_rad),
+                            model.step(index, length_m),
                         )
                     }
                 };
@@ -452,7 +452,6 @@ impl LoopCloser {
             }
             None => (0.0, ChainVariance::ZERO),
         };
-        let c = &self.config;
         self.points.push(thinned);
         self.travel_m.push(travel);
         self.steps.push(step_variance);
@@ -509,15 +508,20 @@ impl LoopCloser {
         self.rejected
     }
 
+    /// The sequential edges' a-priori noise (`sequential_sigma_*`).
+    fn a_priori_noise(&self) -> StepNoise {
+        StepNoise {
+            sigma_m: self.config.sequential_sigma_m,
+            sigma_per_m: self.config.sequential_sigma_per_m,
+            sigma_rad: self.config.sequential_sigma_rad,
+        }
+    }
+
     /// The sequential edges' noise, as the consistency tests read it.
     fn step_noise(&self) -> MeasuredSteps<'_> {
         MeasuredSteps {
             steps: &self.steps,
-            model: StepNoise {
-                sigma_m: self.config.sequential_sigma_m,
-                sigma_per_m: self.config.sequential_sigma_per_m,
-                sigma_rad: self.config.sequential_sigma_rad,
-            },
+            model: self.a_priori_noise(),
         }
     }
 

@@ -72,8 +72,8 @@ pub(super) struct Aligned {
     pub covariance: Matrix3<f64>,
 }
 
-/// What [`KeyframeIcp::align_pose`] made of a scan: the pose taken and, when ICP
-/// converged, its result.
+/// What [`KeyframeIcp::align_pose`] made of a scan: the pose taken (the guess when there
+/// was too little to align with) and, when ICP converged, its result.
 struct Matched {
     pose: Pose2,
     icp: Option<IcpResult>,
@@ -171,13 +171,9 @@ impl KeyframeIcp {
                 odometry.heading_rad.powi(2),
             )),
         };
-        let (pose, icp) = match self.align_pose(input, guess, mode) {
-            None => return odometry_only(guess),
-            Some(Matched { pose, icp: None }) => return odometry_only(pose),
-            Some(Matched {
-                pose,
-                icp: Some(icp),
-            }) => (pose, icp),
+        let Matched { pose, icp } = self.align_pose(input, guess, mode);
+        let Some(icp) = icp else {
+            return odometry_only(pose);
         };
         let min_points = self.min_constraining_points.unwrap_or(DEFAULT_MIN_POINTS);
         let (xy, heading_rad2) = icp.covariance(min_points, odometry.position_m.powi(2));
@@ -187,20 +183,18 @@ impl KeyframeIcp {
         Aligned { pose, covariance }
     }
 
-    /// [`KeyframeIcp::align`]'s pose and the ICP result it came from; `None` when the guess
-    /// stands (too little to align with).
-    fn align_pose(
-        &mut self,
-        input: &FrontEndInput,
-        guess: Pose2,
-        mode: IcpMode,
-    ) -> Option<Matched> {
+    /// [`KeyframeIcp::align`]'s pose and the ICP result it came from.
+    fn align_pose(&mut self, input: &FrontEndInput, guess: Pose2, mode: IcpMode) -> Matched {
+        let unmatched = Matched {
+            pose: guess,
+            icp: None,
+        };
         if let Some(last) = self.last_guess.replace(guess) {
             self.route_m += last.position().distance(&guess.position());
         }
         let points = &input.frame.points[..];
         if points.len() < 10 {
-            return None;
+            return unmatched;
         }
         // The back end moved the map since the reference was built.
         let moved = self
@@ -244,10 +238,10 @@ impl KeyframeIcp {
             self.scans_since_reference = 0;
         }
         let Some((icp, _, _)) = &self.reference else {
-            return None;
+            return unmatched;
         };
         if icp.len() < 10 {
-            return None;
+            return unmatched;
         }
         let guess = match self.guess_noise {
             Some(noise) => search_far_guess(
@@ -264,19 +258,19 @@ impl KeyframeIcp {
         let result = icp.align(points, guess, mode);
         if !(result.converged && result.pose.is_finite()) {
             // (The far guess's search placed it, when one ran.)
-            return Some(Matched {
+            return Matched {
                 pose: guess,
                 icp: None,
-            });
+            };
         }
         let pose = match self.min_constraining_points {
             Some(min_points) => hold_unmeasured_directions(&result, &guess, min_points).pose,
             None => result.pose,
         };
-        Some(Matched {
+        Matched {
             pose,
             icp: Some(result),
-        })
+        }
     }
 }
 
