@@ -391,7 +391,13 @@ impl Mapper {
             }
             _ => None,
         };
-        let step_covariance = back_end.step_covariance.take();
+        let step_covariance = back_end.step_covariance.take().map(|c| {
+            let k: f64 = std::env::var("SKSL_COV_K")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(1.0);
+            c * k
+        });
         let outcome = back_end.closer.add_keyframe_with_step(
             pose,
             &frame.points,
@@ -422,11 +428,13 @@ impl Mapper {
     /// Blends every stretch between placed scans from `from_scan` on (an index into
     /// `trajectory_scans`) with [`between_scans::blend_stretch`].
     fn blend_between_scans(&mut self, from_scan: usize) {
+        let noise = self.config.odometry_noise.unwrap_or_default();
         for pair in self.trajectory_scans.windows(2).skip(from_scan) {
             let (i0, i1) = (pair[0], pair[1]);
             between_scans::blend_stretch(
                 &mut self.trajectory[i0..=i1],
                 &self.trajectory_odometry[i0..=i1],
+                &noise,
             );
         }
     }
