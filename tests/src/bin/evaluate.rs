@@ -32,7 +32,9 @@ use sketchslam_engine::mapper::Method;
 use sketchslam_simulator::dataset::{DATASET_FILE, Dataset};
 use sketchslam_simulator::generate::{Kind, LidarGrade, generate};
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
-use sketchslam_tests::dataset_run::{run_dataset_in_process, run_dataset_real_process};
+use sketchslam_tests::dataset_run::{
+    dataset_relations, replay_reference_relations, run_dataset_in_process, run_dataset_real_process,
+};
 use sketchslam_tests::generated::{
     loops_that_hurt, plan_worlds, summarize, summary_table, worst_worlds,
 };
@@ -180,7 +182,7 @@ fn main() -> Result<()> {
         run_sequential(&args, &plan, in_process)
     };
     print_table(&results);
-    print_relations(&results);
+    print_relations(&results, &datasets);
     let generated: Vec<RunResult> = results
         .iter()
         .filter(|r| generated_names.contains(&r.scenario))
@@ -452,7 +454,7 @@ fn num(v: f64, width: usize, decimals: usize) -> String {
 }
 
 /// Relation errors of the dataset runs, with the published figures beside.
-fn print_relations(results: &[RunResult]) {
+fn print_relations(results: &[RunResult], datasets: &[Dataset]) {
     let runs: Vec<&RunResult> = results.iter().filter(|r| r.relations.is_some()).collect();
     if runs.is_empty() {
         return;
@@ -482,6 +484,22 @@ fn print_relations(results: &[RunResult]) {
     for name in names {
         if let Some(figures) = published_relation_errors(name) {
             println!("published ({name}, same relations): {figures}");
+        }
+        let Some(dataset) = datasets.iter().find(|d| d.name == name) else {
+            continue;
+        };
+        let reference = dataset_relations(dataset)
+            .and_then(|relations| replay_reference_relations(dataset, &relations));
+        match reference {
+            Ok(Some(r)) => println!(
+                "floor ({name}): the replay's own reference (the log's corrected poses at its scans \
+                 and odometry, no drift) on the same relations: {} m, {} deg, what an estimate \
+                 that recovered the replay's truth exactly would score",
+                pm(Some(r.trans_mean_m), Some(r.trans_sd_m)),
+                pm(Some(r.rot_mean_deg), Some(r.rot_sd_deg)),
+            ),
+            Ok(None) => {}
+            Err(e) => eprintln!("{name}: the replay's reference could not be scored: {e:#}"),
         }
     }
 }
