@@ -380,8 +380,6 @@ mod tests {
 #[cfg(test)]
 mod intel_tests {
     use super::*;
-    use crate::relations::read_relations;
-    use sketchslam_types::SensorEvent;
 
     fn intel() -> Option<Dataset> {
         let dir = Path::new(concat!(
