@@ -79,6 +79,16 @@ mod tests {
         TrajectoryPoint { stamp_ns, pose }
     }
 
+    /// The trajectory of `odometry` read every quarter second, each pose where the odometry
+    /// puts it.
+    fn every_quarter_second(odometry: &[Pose2]) -> Vec<TrajectoryPoint> {
+        odometry
+            .iter()
+            .enumerate()
+            .map(|(k, o)| point(k as u64 * 250_000_000, *o))
+            .collect()
+    }
+
     #[test]
     fn a_scan_correction_spreads_over_the_stretch_before_it() {
         // Odometry: straight along x, 1 m per second. The second scan was placed 0.4 m
@@ -86,11 +96,7 @@ mod tests {
         let odometry: Vec<Pose2> = (0..5)
             .map(|k| Pose2::new(k as f64 * 0.25, 0.0, 0.0))
             .collect();
-        let mut stretch: Vec<TrajectoryPoint> = odometry
-            .iter()
-            .enumerate()
-            .map(|(k, o)| point(k as u64 * 250_000_000, *o))
-            .collect();
+        let mut stretch = every_quarter_second(&odometry);
         stretch[4].pose = Pose2::new(1.4, 0.0, 0.2);
         blend_stretch(&mut stretch, &odometry, &OdometryNoise::default());
         // At t = 0.5 s: forward (0.5, 0, 0); backward 0.5 m behind the second scan along
@@ -117,11 +123,7 @@ mod tests {
             .iter()
             .map(|&h| Pose2::new(0.0, 0.0, h))
             .collect();
-        let mut stretch: Vec<TrajectoryPoint> = odometry
-            .iter()
-            .enumerate()
-            .map(|(k, o)| point(k as u64 * 250_000_000, *o))
-            .collect();
+        let mut stretch = every_quarter_second(&odometry);
         stretch[4].pose = Pose2::new(0.0, 0.0, 0.5);
         blend_stretch(&mut stretch, &odometry, &OdometryNoise::default());
         // The heading error had all grown by the end of the turn: every pose after it is
