@@ -391,13 +391,7 @@ impl Mapper {
             }
             _ => None,
         };
-        let step_covariance = back_end.step_covariance.take().map(|c| {
-            let k: f64 = std::env::var("SKSL_COV_K")
-                .ok()
-                .and_then(|v| v.parse().ok())
-                .unwrap_or(1.0);
-            c * k
-        });
+        let step_covariance = back_end.step_covariance.take();
         let outcome = back_end.closer.add_keyframe_with_step(
             pose,
             &frame.points,
