@@ -51,7 +51,7 @@ pub fn dataset_relations(dataset: &Dataset) -> Result<Vec<Relation>> {
     }
 }
 
-/// The replay's own reference trajectory — the log's corrected poses at every scan and
+/// A replay's own reference trajectory — the log's corrected poses at every scan and
 /// every odometry reading it publishes, before the drift it adds — scored on `relations`:
 /// what an estimate that recovered this replay's truth exactly would score, the floor under
 /// every method's figure. The Intel log keeps 910 of the original 13 631 scans and the
@@ -61,13 +61,14 @@ pub fn dataset_relations(dataset: &Dataset) -> Result<Vec<Relation>> {
 /// relation falls inside.
 pub fn replay_reference_relations(
     dataset: &Dataset,
+    replay: Replay,
     relations: &[Relation],
-) -> Result<Option<RelationScore>> {
+) -> Option<RelationScore> {
     if !dataset.has_reference_poses() {
-        return Ok(None);
+        return None;
     }
     let mut reference: Vec<StampedPose> = Vec::new();
-    for step in Replay::new(dataset)? {
+    for step in replay {
         let t_s = step.event.stamp_ns() as f64 * 1e-9;
         // A scan and its odometry share a stamp: one pose per stamp.
         if reference.last().is_none_or(|last| t_s > last.t_s) {
@@ -77,7 +78,7 @@ pub fn replay_reference_relations(
             });
         }
     }
-    Ok(score_relations(&reference, relations))
+    score_relations(&reference, relations)
 }
 
 /// Maps `dataset`'s log with `method` in this process, writes the artifacts into `out_dir`
@@ -403,9 +404,8 @@ mod intel_tests {
         let Some(dataset) = intel() else { return };
         let relations = dataset_relations(&dataset).unwrap();
         assert_eq!(relations.len(), 2984);
-        let reference = replay_reference_relations(&dataset, &relations)
-            .unwrap()
-            .unwrap();
+        let replay = Replay::new(&dataset).unwrap();
+        let reference = replay_reference_relations(&dataset, replay, &relations).unwrap();
         // Measured 2026-12-04: 0.066 m, 2.3°; the relations' stamps must be the log's, or
         // the reference would be off by the motion between them.
         assert!(
