@@ -36,24 +36,34 @@
 //!   similarity.
 //!
 //! Started from the prior and from the best starts of a global search over the prior's
-//! range (`search`: scale, stretch of the axes, rotation, translation scored
-//! against a distance field of the drawn lines), keeping the fit of least `E` (the most
-//! probable; a point beyond the gate counts at the gate): from the prior alone, a scale
-//! guess 30 % off settles a room over on a floor of same-size rooms.
+//! range (`search`: scale, stretch along the walls' axes, rotation, translation scored
+//! against a distance field of the drawn lines): each start runs the similarity stage and
+//! the coarsest grid, the `finished_starts` of least `E` (the most probable; a point beyond
+//! the gate counts at the gate) go on to the finer grids, and the least `E` is kept (the
+//! search's score ranks by the share of walls near a line only: on the Intel CAD plan its
+//! fourth start is the right one). From the prior alone, a scale guess 30 % off settles a
+//! room over on a floor of same-size rooms. Then, round after round while `E` falls, the
+//! region search (`region_search`) moves a region of the coarsest grid beyond the gates
+//! where its walls lie on drawn walls and fits again: a wing drawn out of proportion with
+//! the rest.
 //! Each runs Gauss–Newton (the model is linear in θ; the nearest lines are found again each
 //! iteration): first the similarity alone (a few iterations, the offsets held at the start's), then
 //! everything on control grids refined coarse to fine (`levels`: 16, 8, 4 m at the
-//! defaults; each level starts from the last, [`Warp::resampled`]), so a floor's large
+//! defaults; each level starts from the last, [`Warp::resampled`]; a stage stops early once
+//! a step moves no point by a millimetre), so a floor's large
 //! proportions settle before a room's. A level's gate is what its cells cannot bend, a
 //! person's proportion error over half a cell (at least `gate_m`); the gate never widens
 //! again (widened for the deformation, it folded maps onto the nearest lines). All lengths
 //! in meters are turned into pixels at the prior's scale. Cost: the search's (tenths of a
-//! second), then per start and iteration O(n · L) to associate n points with L lines, O(n) to build, O(m³) to solve for
+//! second), then per start and iteration O(n · l) to associate n points with the l lines
+//! listed near each (`segment_grid`), O(n) to build, O(m³) to solve for
 //! m = 4 + 2 · nodes parameters (a 60 × 40 m floor at 4 m: 356).
 //!
 //! Pure: values in, values out.
 
-use super::search::search_starts;
+use super::region_search::region_starts;
+use super::search::{DirectionField, search_starts};
+use super::segment_grid::SegmentGrid;
 use super::warp::{ControlGrid, Similarity, Warp};
 use crate::scan_matching::icp::{Icp, IcpConfig};
 use crate::sketch::SketchLine;
@@ -97,10 +107,13 @@ pub struct FitConfig {
     /// The global start (`search`) searches this many standard deviations of the
     /// prior's scale, rotation and translation each way (0: start from the prior).
     pub search_sigmas: f64,
-    /// The fit runs from the prior and from this many of the search's starts (the best
-    /// with its axes scaled apart, then the best as a similarity, …) and keeps the fit with
-    /// the least `E` (0: the prior alone).
+    /// The fit's first stages (the similarity, the coarsest grid) run from the prior and
+    /// from this many of the search's starts, best first (0: the prior alone).
     pub search_starts: usize,
+    /// The fits of least `E` after the first stages that go on to the finer grids; the one
+    /// of least `E` at the end is kept. (The search's score ranks starts by the share of
+    /// walls near a drawn line only; a stage of the fit ranks them by `E`.)
+    pub finished_starts: usize,
     /// Change of the drawing's proportions from one cell to the next (σ_b / spacing): how
     /// far a person's drawing departs from a single affine map of the floor, per cell.
     pub proportion_change: f64,
@@ -122,7 +135,8 @@ impl Default for FitConfig {
             warp_iterations: 15,
             levels: 3,
             search_sigmas: 2.0,
-            search_starts: 2,
+            search_starts: 6,
+            finished_starts: 2,
             proportion_change: 0.01,
         }
     }
@@ -179,77 +193,226 @@ pub fn fit_warp(
     prior: Similarity,
     config: &FitConfig,
 ) -> Option<WarpFit> {
-    // The wall through each point (PCA over its neighbours, as ICP's reference normals,
-    // which also drops the non-finite points); points on no line (clutter, corners) take no
-    // part.
-    let icp = Icp::new(points, IcpConfig::default());
-    let points: Vec<WallPoint> = icp
-        .points()
-        .iter()
-        .zip(icp.normals())
-        .filter_map(|(p, n)| n.map(|normal| WallPoint { p: *p, normal }))
-        .collect();
-    let s0 = prior.scale_px_per_m();
-    if points.is_empty() || lines.is_empty() || !(s0 > 0.0 && s0.is_finite()) {
-        return None;
-    }
-    let segments: Vec<Segment> = lines
-        .iter()
-        .filter_map(|l| {
-            let (a, b) = (Point2::new(l.a.x, -l.a.y), Point2::new(l.b.x, -l.b.y));
-            let len = a.distance(&b);
-            (len > 0.0).then(|| Segment {
-                a,
-                b,
-                normal: Point2::new(-(b.y - a.y) / len, (b.x - a.x) / len),
-            })
-        })
-        .collect();
-    if segments.is_empty() {
-        return None;
-    }
-    let (lo, hi) = points.iter().map(|w| w.p).fold(
-        (
-            Point2::new(f64::MAX, f64::MAX),
-            Point2::new(f64::MIN, f64::MIN),
-        ),
-        |(lo, hi), p| {
-            (
-                Point2::new(lo.x.min(p.x), lo.y.min(p.y)),
-                Point2::new(hi.x.max(p.x), hi.y.max(p.y)),
-            )
-        },
-    );
+    let problem = Prepared::new(points, lines, &prior, config)?;
     // The prior itself, then the search's best starts; each on a grid of one cell over the
     // map, whose four corners hold a start whose axes scale apart exactly.
-    let extent_m = (hi.x - lo.x).max(hi.y - lo.y).max(config.spacing_m);
-    let corners = ControlGrid::covering(lo, hi, extent_m);
+    let extent_m = (problem.hi.x - problem.lo.x)
+        .max(problem.hi.y - problem.lo.y)
+        .max(config.spacing_m);
+    let corners = ControlGrid::covering(problem.lo, problem.hi, extent_m);
     let mut starts = vec![Warp::rigid(prior, corners)];
     starts.extend(
-        search_starts(&points, &segments, &prior, config)
+        search_starts(&problem.points, &problem.segments, &prior, config)
             .iter()
             .take(config.search_starts)
             .map(|c| c.warp(&prior, corners)),
     );
     // The most probable fit: the least `E` (the module doc's, each point beyond the gate
-    // counted at the gate).
-    starts
+    // counted at the gate), after the first stages from every start, then at the end from
+    // the best few of those.
+    let levels = config.levels.max(1);
+    let mut firsts: Vec<(WarpFit, f64)> = starts
         .into_iter()
-        .map(|start| fit_from(start, &points, &segments, &prior, config, lo, hi))
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map(|(fit, _)| fit)
+        .map(|start| problem.fit_from(start, &prior, config, Stages::first()))
+        .collect();
+    firsts.sort_by(|a, b| a.1.total_cmp(&b.1));
+    firsts.truncate(config.finished_starts.max(1));
+    let best = firsts
+        .into_iter()
+        .map(|(fit, energy)| {
+            if levels > 1 {
+                problem.fit_from(fit.warp, &prior, config, Stages::rest(levels))
+            } else {
+                (fit, energy)
+            }
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    // Regions laid a room over: moved beyond the gate and fitted again (`region_search`).
+    let s0 = prior.scale_px_per_m();
+    let coarsest_m = config.spacing_m * f64::from(1u32 << (config.levels.max(1) - 1).min(8));
+    let Some(field) = DirectionField::new(
+        &problem.segments,
+        config.direction_tolerance_rad,
+        0.25 * config.gate_m.max(1e-3) * s0,
+        config.gate_m.max(1e-3) * s0,
+    ) else {
+        return Some(best.0);
+    };
+    let grid = ControlGrid::covering(problem.lo, problem.hi, coarsest_m);
+    // Round after round while a move ends more probable: a wing drawn far out of proportion
+    // is reached a region's search at a time.
+    let mut best = best;
+    for _ in 0..REGION_ROUNDS {
+        let Some(better) = region_starts(&problem.points, &field, &best.0.warp, grid, config, s0)
+            .into_iter()
+            .map(|start| problem.fit_from(start, &prior, config, Stages::all_grids(levels)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .filter(|f| f.1 < best.1)
+        else {
+            break;
+        };
+        best = better;
+    }
+    Some(best.0)
 }
 
-/// The fit's stages (similarity, then the control grids coarse to fine) from `start`.
-fn fit_from(
-    start: Warp,
-    points: &[WallPoint],
-    segments: &[Segment],
-    prior: &Similarity,
+/// Rounds of the region search (`region_search`) at most, each from the best fit of the
+/// last.
+const REGION_ROUNDS: usize = 3;
+
+/// [`fit_warp`]'s stages from `start` instead of its starts, and the fit's `E` (each point
+/// beyond the last gate counted at the gate): how a benchmark asks whether a known answer is
+/// more probable than the one the search found. `None` as [`fit_warp`].
+pub fn fit_warp_from(
+    points: &[Point2],
+    lines: &[SketchLine],
+    prior: Similarity,
     config: &FitConfig,
+    start: Warp,
+) -> Option<(WarpFit, f64)> {
+    let problem = Prepared::new(points, lines, &prior, config)?;
+    Some(problem.fit_from(
+        start,
+        &prior,
+        config,
+        Stages {
+            similarity: true,
+            levels: 0..config.levels.max(1),
+        },
+    ))
+}
+
+/// The wall points with their normals, the drawn segments (bucketed for the widest gate the
+/// fit uses) and the walls' extent.
+struct Prepared {
+    points: Vec<WallPoint>,
+    segments: Vec<Segment>,
+    index: SegmentGrid,
     lo: Point2,
     hi: Point2,
+}
+
+impl Prepared {
+    fn new(
+        points: &[Point2],
+        lines: &[SketchLine],
+        prior: &Similarity,
+        config: &FitConfig,
+    ) -> Option<Self> {
+        // The wall through each point (PCA over its neighbours, as ICP's reference normals,
+        // which also drops the non-finite points); points on no line (clutter, corners) take
+        // no part.
+        let icp = Icp::new(points, IcpConfig::default());
+        let points: Vec<WallPoint> = icp
+            .points()
+            .iter()
+            .zip(icp.normals())
+            .filter_map(|(p, n)| n.map(|normal| WallPoint { p: *p, normal }))
+            .collect();
+        let s0 = prior.scale_px_per_m();
+        if points.is_empty() || lines.is_empty() || !(s0 > 0.0 && s0.is_finite()) {
+            return None;
+        }
+        let segments: Vec<Segment> = lines
+            .iter()
+            .filter_map(|l| {
+                let (a, b) = (Point2::new(l.a.x, -l.a.y), Point2::new(l.b.x, -l.b.y));
+                let len = a.distance(&b);
+                (len > 0.0).then(|| Segment {
+                    a,
+                    b,
+                    normal: Point2::new(-(b.y - a.y) / len, (b.x - a.x) / len),
+                })
+            })
+            .collect();
+        if segments.is_empty() {
+            return None;
+        }
+        let (lo, hi) = points.iter().map(|w| w.p).fold(
+            (
+                Point2::new(f64::MAX, f64::MAX),
+                Point2::new(f64::MIN, f64::MIN),
+            ),
+            |(lo, hi), p| {
+                (
+                    Point2::new(lo.x.min(p.x), lo.y.min(p.y)),
+                    Point2::new(hi.x.max(p.x), hi.y.max(p.y)),
+                )
+            },
+        );
+        let index = SegmentGrid::new(&segments, widest_gate_m(config) * s0)?;
+        Some(Self {
+            points,
+            segments,
+            index,
+            lo,
+            hi,
+        })
+    }
+
+    fn fit_from(
+        &self,
+        start: Warp,
+        prior: &Similarity,
+        config: &FitConfig,
+        stages: Stages,
+    ) -> (WarpFit, f64) {
+        fit_from(self, start, stages, prior, config)
+    }
+}
+
+/// Which of the fit's stages run: the similarity alone, and the control grids' levels
+/// (0 the coarsest).
+#[derive(Debug, Clone)]
+struct Stages {
+    similarity: bool,
+    levels: std::ops::Range<usize>,
+}
+
+impl Stages {
+    /// The similarity and the coarsest grid: where starts are told apart.
+    fn first() -> Self {
+        Self {
+            similarity: true,
+            levels: 0..1,
+        }
+    }
+
+    /// The finer grids after [`Stages::first`].
+    fn rest(levels: usize) -> Self {
+        Self {
+            similarity: false,
+            levels: 1..levels,
+        }
+    }
+
+    /// Every grid, from a warp already fitted (the region search's moves).
+    fn all_grids(levels: usize) -> Self {
+        Self {
+            similarity: false,
+            levels: 0..levels,
+        }
+    }
+}
+
+/// The fit's `stages` (similarity, then the control grids coarse to fine) from `start`; a
+/// run that starts past the similarity starts at its first level's gate (a gate never
+/// widens again).
+fn fit_from(
+    problem: &Prepared,
+    start: Warp,
+    stages: Stages,
+    prior: &Similarity,
+    config: &FitConfig,
 ) -> (WarpFit, f64) {
+    let Prepared {
+        points,
+        segments,
+        index,
+        lo,
+        hi,
+    } = problem;
+    let (points, segments, lo, hi) = (points.as_slice(), segments.as_slice(), *lo, *hi);
     let s0 = prior.scale_px_per_m();
     let prior = *prior;
     let px = |m: f64| m * s0;
@@ -263,29 +426,46 @@ fn fit_from(
         |spacing_m: f64| px((0.5 * config.proportion_error * spacing_m).max(config.gate_m));
     let mut warp = start;
     // The similarity first, its gate shrinking from the start gate to the first level's.
-    let mut gate_px = px(config.start_gate_m.max(config.gate_m));
-    for _ in 0..config.similarity_iterations {
-        let pairs = associate(&warp, points, segments, gate_px, cos_tol);
+    let first_level = stages.levels.start.min(levels - 1);
+    let mut gate_px = if stages.similarity {
+        px(config.start_gate_m.max(config.gate_m))
+    } else {
+        level_gate_px(spacing_at(first_level))
+    };
+    let similarity_iterations = if stages.similarity {
+        config.similarity_iterations
+    } else {
+        0
+    };
+    for _ in 0..similarity_iterations {
+        let pairs = associate(&warp, points, segments, index, gate_px, cos_tol);
         let Some(step) = solve_step(&warp, &pairs, &prior, config, false) else {
             break;
         };
         apply_step(&mut warp, &step, false);
-        gate_px = (gate_px * 0.8).max(level_gate_px(spacing_at(0)));
+        let shrunk = (gate_px * 0.8).max(level_gate_px(spacing_at(0)));
+        if converged(&step, lo, hi, s0) && shrunk == gate_px {
+            break;
+        }
+        gate_px = shrunk;
     }
-    for level in 0..levels {
+    for level in stages.levels.start..stages.levels.end.min(levels) {
         let spacing_m = spacing_at(level);
         warp = warp.resampled(ControlGrid::covering(lo, hi, spacing_m));
         gate_px = gate_px.min(level_gate_px(spacing_m));
         for _ in 0..config.warp_iterations {
-            let pairs = associate(&warp, points, segments, gate_px, cos_tol);
+            let pairs = associate(&warp, points, segments, index, gate_px, cos_tol);
             let Some(step) = solve_step(&warp, &pairs, &prior, config, true) else {
                 break;
             };
             apply_step(&mut warp, &step, true);
+            if converged(&step, lo, hi, s0) {
+                break;
+            }
         }
     }
     let grid = warp.grid;
-    let pairs = associate(&warp, points, segments, gate_px, cos_tol);
+    let pairs = associate(&warp, points, segments, index, gate_px, cos_tol);
     let mut support = vec![0.0; grid.len()];
     let mut sum_sq = 0.0;
     for pair in &pairs {
@@ -308,6 +488,30 @@ fn fit_from(
     (fit, cost)
 }
 
+/// Whether a Gauss–Newton step moved no point of the map's extent (corners `lo`, `hi`) by
+/// more than [`CONVERGED_M`] (at the prior's scale `s0` px/m): the next association would be
+/// the same, and so the next step nothing.
+fn converged(step: &DVector<f64>, lo: Point2, hi: Point2, s0: f64) -> bool {
+    let reach_m = lo.x.abs().max(hi.x.abs()).hypot(lo.y.abs().max(hi.y.abs()));
+    // (a, b) move a point at distance r by r·|(δa, δb)|, t and the offsets by themselves.
+    let linear = step[0].hypot(step[1]) * reach_m;
+    let rest = step.iter().skip(2).fold(0.0f64, |m, v| m.max(v.abs()));
+    linear.max(rest) < CONVERGED_M * s0
+}
+
+/// A Gauss–Newton step below this (meters at the drawing's scale) ends a stage: a tenth of
+/// a centimetre, far below a pen's width.
+const CONVERGED_M: f64 = 1e-3;
+
+/// The widest gate [`fit_from`] uses, meters: the start gate, or the coarsest level's.
+fn widest_gate_m(config: &FitConfig) -> f64 {
+    let coarsest_m = config.spacing_m * f64::from(1u32 << (config.levels.max(1) - 1).min(8));
+    config
+        .start_gate_m
+        .max(config.gate_m)
+        .max(0.5 * config.proportion_error * coarsest_m)
+}
+
 /// A wall point paired with the nearest drawn line of its direction.
 struct Pair {
     /// The map point.
@@ -320,11 +524,13 @@ struct Pair {
 
 /// Each wall point whose warped position lies within `gate_px` of a drawn line of its own
 /// direction (the map normal turned by W's rotation against the line's normal, within
-/// `acos(cos_tol)`), paired with the nearest such line. O(n · L).
+/// `acos(cos_tol)`), paired with the nearest such line (`gate_px` at most `index`'s reach).
+/// O(n · the lines listed near a point).
 fn associate(
     warp: &Warp,
     points: &[WallPoint],
     segments: &[Segment],
+    index: &SegmentGrid,
     gate_px: f64,
     cos_tol: f64,
 ) -> Vec<Pair> {
@@ -337,8 +543,10 @@ fn associate(
                 cos * wp.normal.x - sin * wp.normal.y,
                 sin * wp.normal.x + cos * wp.normal.y,
             );
-            let (d, f) = segments
+            let (d, f) = index
+                .near(w)
                 .iter()
+                .map(|&k| &segments[k as usize])
                 .filter(|s| (s.normal.x * nm.x + s.normal.y * nm.y).abs() >= cos_tol)
                 .map(|s| {
                     let f = s.foot(w);

@@ -17,10 +17,12 @@
 pub mod drawing_registration;
 pub mod fit;
 pub mod overlay;
+mod region_search;
 mod search;
+mod segment_grid;
 pub mod warp;
 
 pub use drawing_registration::{DrawingRegistration, WarpProblem};
-pub use fit::{FitConfig, WarpFit, fit_warp};
+pub use fit::{FitConfig, WarpFit, fit_warp, fit_warp_from};
 pub use overlay::{render_drawing_on_map, render_map_on_drawing};
 pub use warp::{ControlGrid, Similarity, Warp};

@@ -4,8 +4,11 @@
 //! room over when the scale guess is 30 % off on a floor of same-size rooms.
 //!
 //! Sits inside [`super::fit::fit_warp`], before its similarity stage. Candidates are taken
-//! about the map's origin (the marked start) relative to the prior `S₀`: x scaled by
-//! `s₀ e^(u+v)`, y by `s₀ e^(u−v)` (map axes), turned by `θ₀ + φ`, shifted by `t₀ + s₀ d`
+//! about the map's origin (the marked start) relative to the prior `S₀`: the floor's first
+//! wall axis scaled by `s₀ e^(u+v)`, its second by `s₀ e^(u−v)` (the axes at `α`, the map's
+//! walls' dominant direction, `¼ atan2(Σ sin 4nᵢ, Σ cos 4nᵢ)` over their normals `nᵢ`: a
+//! person draws a floor too long along its walls, and the map's own axes lie wherever the
+//! robot started), turned by `θ₀ + φ`, shifted by `t₀ + s₀ d`
 //! (`d` meters), over `|u| ≤ k σ_u`, `|φ| ≤ k σ_φ`, `|d_x|, |d_y| ≤ k σ_d`, `|v| ≤ k σ_v`
 //! (`k = search_sigmas`; σ_u, σ_φ, σ_d the prior's `scale_error`, `rotation_error_rad`,
 //! `translation_error_m`, σ_v the drawing's `proportion_error`). Each is scored
@@ -27,9 +30,9 @@
 //! term over `|φ| ≤ k σ_φ`, the best two); (2) about each, a grid over `(u, φ ± one step, d)`
 //! at steps that move the farthest wall point by half the gate (every k-th point, at most
 //! `COARSE_POINTS`); (3) from its best local maxima a pattern search over `(u, φ, d)`
-//! (3⁴ neighbours) halving the steps twice; (4) for the best, x's and y's scale and
-//! translation in turn over grids of `(v, d)` (coordinate ascent, twice). The search
-//! returns the stretched best, then the refined maxima, best first.
+//! (3⁴ neighbours) halving the steps twice; (4) for each, the first and the second axis'
+//! scale and translation in turn over grids of `(v, d)` (coordinate ascent, twice). The
+//! search returns the stretched and the unstretched maxima, best first, one per maximum.
 //!
 //! Cost: O(L · (ℓ + r) · r / c²) to rasterize (L lines of length ℓ, reach r = τ, cell c);
 //! O(n) per candidate; `(2kσ_u / Δu) · 6 · (2kσ_d / Δd)²` candidates on the grid (Δ from
@@ -68,8 +71,7 @@ pub(super) struct DirectionField {
     rows: usize,
     bins: usize,
     bin_rad: f64,
-    /// The truncation (read by the tests; the scorer reads the cells itself).
-    #[cfg(test)]
+    /// The truncation.
     reach_px: f64,
     distance_px: Vec<f32>,
 }
@@ -148,7 +150,6 @@ impl DirectionField {
             rows,
             bins,
             bin_rad,
-            #[cfg(test)]
             reach_px,
             distance_px,
         })
@@ -156,8 +157,7 @@ impl DirectionField {
 
     /// The distance from `w` (drawing frame, pixels) to the nearest drawn line whose normal
     /// is within the tolerance of `normal_rad`, at most the reach.
-    #[cfg(test)]
-    fn distance_px(&self, w: Point2, normal_rad: f64) -> f64 {
+    pub(super) fn distance_px(&self, w: Point2, normal_rad: f64) -> f64 {
         let fx = (w.x - self.origin_px.x) / self.cell_px;
         let fy = (w.y - self.origin_px.y) / self.cell_px;
         if !(fx >= 0.0 && fy >= 0.0) {
@@ -177,9 +177,13 @@ impl DirectionField {
 pub(super) struct Candidate {
     /// Log scale against the prior's (the mean of the two axes').
     pub u: f64,
-    /// Half the log of the drawing's x scale over its y scale (map axes): x is scaled by
-    /// `e^(u+v)`, y by `e^(u−v)`.
+    /// Half the log of the drawing's scale along the floor's first wall axis over its scale
+    /// along the second: the first is scaled by `e^(u+v)`, the second by `e^(u−v)`.
     pub v: f64,
+    /// The floor's first wall axis in the map frame, radians (the map's walls' dominant
+    /// direction: a person draws a floor too long or too short along its walls, not along
+    /// the map's axes, which are wherever the robot started).
+    pub axes_rad: f64,
     /// Rotation against the prior's, radians.
     pub phi_rad: f64,
     /// Translation against the prior's, meters at the prior's scale.
@@ -206,6 +210,7 @@ impl Candidate {
     pub(super) fn warp(&self, prior: &Similarity, grid: ControlGrid) -> Warp {
         let similarity = self.similarity(prior);
         let (sin, cos) = similarity.rotation_rad().sin_cos();
+        let (sin_a, cos_a) = self.axes_rad.sin_cos();
         let s = similarity.scale_px_per_m();
         let (ex, ey) = (self.v.exp() - 1.0, (-self.v).exp() - 1.0);
         let mut warp = Warp::rigid(similarity, grid);
@@ -214,8 +219,11 @@ impl Candidate {
                 grid.origin.x + (k % grid.columns) as f64 * grid.spacing_m,
                 grid.origin.y + (k / grid.columns) as f64 * grid.spacing_m,
             );
-            // A s (e^v − 1) q_x along x, A s (e^−v − 1) q_y along y, turned.
-            let (dx, dy) = (s * ex * q.x, s * ey * q.y);
+            // s R(θ) R(α) diag(e^v − 1, e^−v − 1) R(−α) q: the stretch along the walls'
+            // axes, turned with the similarity.
+            let (qa, qb) = (cos_a * q.x + sin_a * q.y, -sin_a * q.x + cos_a * q.y);
+            let (da, db) = (s * ex * qa, s * ey * qb);
+            let (dx, dy) = (cos_a * da - sin_a * db, sin_a * da + cos_a * db);
             *o = Point2::new(cos * dx - sin * dy, sin * dx + cos * dy);
         }
         warp
@@ -231,6 +239,8 @@ struct Scorer<'a> {
     sigma_v: f64,
     sigma_phi_rad: f64,
     sigma_d_m: f64,
+    /// The floor's first wall axis in the map frame ([`Candidate::axes_rad`]).
+    axes_rad: f64,
 }
 
 impl Scorer<'_> {
@@ -248,7 +258,8 @@ impl Scorer<'_> {
     }
 
     /// `J` of `(u, v, φ)` at every translation of `ds` (meters), `τ` pixels, from every
-    /// `stride`-th point: x scaled by `e^(u+v)`, y by `e^(u−v)` (map frame) before the turn.
+    /// `stride`-th point: the walls' first axis scaled by `e^(u+v)`, the second by `e^(u−v)`,
+    /// before the turn.
     fn score_stretched(
         &self,
         u: f64,
@@ -265,6 +276,7 @@ impl Scorer<'_> {
         );
         let theta = self.prior.rotation_rad() + phi_rad;
         let (sin, cos) = theta.sin_cos();
+        let (sin_a, cos_a) = self.axes_rad.sin_cos();
         let inv_cell = 1.0 / field.cell_px;
         let plane = field.columns * field.rows;
         // The points turned and scaled once, in cells of the field, with their bin's plane.
@@ -275,11 +287,15 @@ impl Scorer<'_> {
             .map(|(p, n)| {
                 let bin =
                     (((n + theta).rem_euclid(PI) / field.bin_rad) as usize).min(field.bins - 1);
+                // Stretched along the walls' axes (R(α) diag(sx, sy) R(−α) p), then turned.
+                let (pa, pb) = (
+                    sx * (cos_a * p.x + sin_a * p.y),
+                    sy * (-sin_a * p.x + cos_a * p.y),
+                );
+                let q = Point2::new(cos_a * pa - sin_a * pb, sin_a * pa + cos_a * pb);
                 (
-                    (cos * sx * p.x - sin * sy * p.y + self.prior.t.x - field.origin_px.x)
-                        * inv_cell,
-                    (sin * sx * p.x + cos * sy * p.y + self.prior.t.y - field.origin_px.y)
-                        * inv_cell,
+                    (cos * q.x - sin * q.y + self.prior.t.x - field.origin_px.x) * inv_cell,
+                    (sin * q.x + cos * q.y + self.prior.t.y - field.origin_px.y) * inv_cell,
                     bin * plane,
                 )
             })
@@ -445,6 +461,13 @@ pub(super) fn search_starts(
         return Vec::new();
     };
     let stride = points.len().div_ceil(MAX_POINTS);
+    // The walls' dominant axis: the mean of their normals' angles taken four times over
+    // (a wall and the walls across it count alike).
+    let (s4, c4) = points.iter().fold((0.0, 0.0), |(s, c), w| {
+        let a = 4.0 * w.normal.y.atan2(w.normal.x);
+        (s + a.sin(), c + a.cos())
+    });
+    let axes_rad = 0.25 * s4.atan2(c4);
     let scorer = Scorer {
         points: points
             .iter()
@@ -457,6 +480,7 @@ pub(super) fn search_starts(
         sigma_v: config.proportion_error.max(1e-3),
         sigma_phi_rad: config.rotation_error_rad.max(1e-3),
         sigma_d_m: config.translation_error_m.max(1e-3),
+        axes_rad,
     };
     // Steps that move the farthest point by half the gate.
     let radius_m = scorer
@@ -533,6 +557,7 @@ pub(super) fn search_starts(
         .map(|&(j, a, b, c)| Candidate {
             u: us[a],
             v: 0.0,
+            axes_rad: scorer.axes_rad,
             phi_rad: phis[b],
             d_m: ds[c],
             objective: j,
@@ -593,15 +618,32 @@ pub(super) fn search_starts(
             kept.push(s);
         }
     }
-    // The best, its axes let scale apart, first (when they do).
-    if let Some(&best) = kept.first() {
-        let mut stretched = best;
-        stretch(&scorer, &mut stretched, du0, dd0, tau_px, k);
-        if stretched.v != 0.0 {
-            kept.insert(0, stretched);
+    // Each, its axes let scale apart (a drawing's proportions may be wrong along one axis
+    // only: the best similarity then lays part of the floor right and the rest off, and
+    // the true stretch may start from another maximum than the best), best first.
+    let mut stretched: Vec<Candidate> = Vec::with_capacity(2 * kept.len());
+    for seed in &kept {
+        let mut s = *seed;
+        stretch(&scorer, &mut s, du0, dd0, tau_px, k);
+        if s.v != 0.0 {
+            stretched.push(s);
         }
     }
-    kept
+    stretched.extend(kept);
+    stretched.sort_by(|x, y| y.objective.total_cmp(&x.objective));
+    let mut starts: Vec<Candidate> = Vec::new();
+    for s in stretched {
+        if !starts.iter().any(|k| {
+            (k.u - s.u).abs() <= 2.0 * du
+                && (k.v - s.v).abs() <= 2.0 * du
+                && (k.phi_rad - s.phi_rad).abs() <= 2.0 * dphi
+                && (k.d_m.x - s.d_m.x).abs() <= 2.0 * dd
+                && (k.d_m.y - s.d_m.y).abs() <= 2.0 * dd
+        }) {
+            starts.push(s);
+        }
+    }
+    starts
 }
 
 #[cfg(test)]
@@ -736,6 +778,70 @@ mod tests {
             "{best:?}"
         );
         assert!(best.d_m.x.hypot(best.d_m.y) < 0.5, "{best:?}");
+    }
+
+    #[test]
+    fn a_drawing_stretched_along_the_walls_of_a_turned_map_is_found_stretched() {
+        // The robot started turned 8° against the floor's walls, so the map's axes are not
+        // the walls'; the floor is drawn 30 % wider along its walls' x, true in y, and the
+        // mark's rotation is right. Stretching along the map's axes would shear the walls.
+        let turn = 8f64.to_radians();
+        let (sin, cos) = turn.sin_cos();
+        let start = Point2::new(2.0, 6.0);
+        // World → map: about the start, turned by −8°.
+        let to_map = |p: Point2| {
+            let (x, y) = (p.x - start.x, p.y - start.y);
+            Point2::new(cos * x + sin * y, -sin * x + cos * y)
+        };
+        let drawn = |p: Point2| {
+            Point2::new(
+                100.0 + 13.0 * (p.x - start.x),
+                -100.0 + 10.0 * (p.y - start.y),
+            )
+        };
+        let mut points = Vec::new();
+        let mut segments = Vec::new();
+        for (a, b) in walls() {
+            let len = a.distance(&b);
+            let normal = Point2::new(-(b.y - a.y) / len, (b.x - a.x) / len);
+            let map_normal = Point2::new(
+                cos * normal.x + sin * normal.y,
+                -sin * normal.x + cos * normal.y,
+            );
+            for i in 0..=(len / 0.1) as usize {
+                let t = i as f64 * 0.1 / len;
+                let p = Point2::new(a.x + t * (b.x - a.x), a.y + t * (b.y - a.y));
+                points.push(WallPoint {
+                    p: to_map(p),
+                    normal: map_normal,
+                });
+            }
+            segments.push(Segment {
+                a: drawn(a),
+                b: drawn(b),
+                normal,
+            });
+        }
+        // The mark: the start where it is drawn, turned back by the 8°, 10 px/m.
+        let prior = Similarity::new(10.0, turn, Point2::new(100.0, -100.0));
+        let best = search_starts(&points, &segments, &prior, &FitConfig::default())[0];
+        // The walls' first axis is the map's −8° (world x), and the stretch along it
+        // u + v = ln 1.3, across it u − v = 0.
+        assert!((best.axes_rad + turn).abs() < 1e-6, "{best:?}");
+        let half = 0.5 * 1.3f64.ln();
+        assert!(
+            (best.u - half).abs() < 0.03 && (best.v - half).abs() < 0.03,
+            "{best:?}"
+        );
+        // Its warp lays every wall within the gate (10 px) of its drawn place.
+        let grid = ControlGrid::covering(Point2::new(-30.0, -30.0), Point2::new(30.0, 30.0), 60.0);
+        let warp = best.warp(&prior, grid);
+        let far = walls()
+            .into_iter()
+            .flat_map(|(a, b)| [a, b])
+            .map(|p| warp.apply(to_map(p)).distance(&drawn(p)))
+            .fold(0.0, f64::max);
+        assert!(far < 10.0, "{far} px: {best:?}");
     }
 
     #[test]
