@@ -16,7 +16,10 @@
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
-use sketchslam_engine::registration::{FitConfig, render_map_on_drawing};
+use sketchslam_engine::registration::{
+    ControlGrid, FitConfig, Similarity, Warp, fit_warp_from, render_map_on_drawing,
+};
+use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::dataset::Dataset;
 use sketchslam_simulator::scenario::Scenario;
 use sketchslam_tests::metrics::StampedPose;
@@ -24,6 +27,7 @@ use sketchslam_tests::run::read_trajectory_csv;
 use sketchslam_tests::run::sketch_prior;
 use sketchslam_tests::sketch_truth::{DrawingTruth, pair_by_stamp, score_sketch_poses};
 use sketchslam_tests::warp_problem_file::{WARP_PROBLEM_FILE, WarpProblemFile};
+use sketchslam_types::Point2;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::Instant;
@@ -47,6 +51,21 @@ struct Args {
     /// `RUN/bench-warp-overlay.png`.
     #[arg(long)]
     render: bool,
+    /// Also fit from the truth (a warp through the run's poses carried onto the drawing by
+    /// `sketch-truth.toml`, on the finest grid) and print `E` there, after refitting from
+    /// it, and at the fit found: whether a miss is the search's or the model's.
+    #[arg(long)]
+    truth_start: bool,
+}
+
+/// `--truth-start`'s figures.
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+struct TruthCheck {
+    energy_found: f64,
+    energy_truth: f64,
+    energy_refit: f64,
+    refit_median_m: f64,
+    truth_median_m: f64,
 }
 
 /// One drawing's figures.
@@ -57,6 +76,9 @@ struct Row {
     p95_m: Option<f64>,
     within_1m: Option<f64>,
     heading_median_deg: Option<f64>,
+    /// With `--truth-start`: `E` at the fit found, at the truth, refitted from the truth,
+    /// and the refit's median error.
+    truth: Option<TruthCheck>,
     /// Share of the final trajectory where mapped walls hold W.
     held: f64,
     inliers: usize,
@@ -94,7 +116,7 @@ fn main() -> Result<()> {
                         *n - 1
                     };
                     let Some(path) = files.get(i) else { break };
-                    match score(path, config, args.render) {
+                    match score(path, config, args.render, args.truth_start) {
                         Ok(Some(row)) => rows.lock().unwrap().push(row),
                         Ok(None) => eprintln!("{}: nothing to score", path.display()),
                         Err(e) => eprintln!("{}: {e:#}", path.display()),
@@ -123,6 +145,12 @@ fn main() -> Result<()> {
             r.rms_px,
             r.fit_s
         );
+        if let Some(t) = &r.truth {
+            println!(
+                "    E found {:.0}, at the truth {:.0}, refitted from it {:.0} (median {:.2} m; the truth warp itself {:.2} m)",
+                t.energy_found, t.energy_truth, t.energy_refit, t.refit_median_m, t.truth_median_m
+            );
+        }
     }
     let spread = |mut v: Vec<f64>| {
         v.sort_by(f64::total_cmp);
@@ -165,7 +193,7 @@ fn find_problems(dir: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
 }
 
 /// Fits the problem at `path` with `config` and scores the run's final trajectory through it.
-fn score(path: &Path, config: FitConfig, render: bool) -> Result<Option<Row>> {
+fn score(path: &Path, config: FitConfig, render: bool, truth_start: bool) -> Result<Option<Row>> {
     let run_dir = path.parent().context("a file has a folder")?;
     let file = WarpProblemFile::read(path)?;
     let started = Instant::now();
@@ -212,6 +240,7 @@ fn score(path: &Path, config: FitConfig, render: bool) -> Result<Option<Row>> {
         p95_m: None,
         within_1m: None,
         heading_median_deg: None,
+        truth: None,
         held,
         inliers: registration.fit.inliers,
         rms_px: registration.fit.rms_px,
@@ -219,17 +248,21 @@ fn score(path: &Path, config: FitConfig, render: bool) -> Result<Option<Row>> {
     };
     // Scored where the scenario says how the drawing was made (real logs' drawings: not).
     if let Some(drawing) = DrawingTruth::load(&file.scenario_dir, &file.sketch)? {
-        let truth: Vec<StampedPose> = read_trajectory_csv(&run_dir.join("truth.csv"))?;
+        let truth_all: Vec<StampedPose> = read_trajectory_csv(&run_dir.join("truth.csv"))?;
+        let truth = &truth_all;
         let published: Vec<_> = trajectory
             .iter()
             .map(|t| (t.t_s, warp.pose_on_drawing(&t.pose)))
             .collect();
-        let (truth, estimate) = pair_by_stamp(&truth, &published);
+        let (truth, estimate) = pair_by_stamp(truth, &published);
         if let Some(s) = score_sketch_poses(&truth, &estimate, &drawing) {
             row.median_m = Some(s.median_m);
             row.p95_m = Some(s.p95_m);
             row.within_1m = Some(s.within_1m);
             row.heading_median_deg = Some(s.heading_median_deg);
+        }
+        if truth_start {
+            row.truth = truth_check(&file, config, warp, &trajectory, &truth_all, &drawing);
         }
     }
     Ok(Some(row))
@@ -265,8 +298,162 @@ fn apply_set(config: &mut FitConfig, set: &str) -> Result<()> {
         "levels" => config.levels = n()?,
         "search_sigmas" => config.search_sigmas = f()?,
         "search_starts" => config.search_starts = n()?,
+        "finished_starts" => config.finished_starts = n()?,
         "proportion_change" => config.proportion_change = f()?,
         _ => bail!("--set {key:?}: not a fit setting"),
     }
     Ok(())
+}
+
+/// `--truth-start`: `E` at the fit found, at a warp through the truth, and refitted from it.
+fn truth_check(
+    file: &WarpProblemFile,
+    config: FitConfig,
+    found: &Warp,
+    trajectory: &[StampedPose],
+    truth: &[StampedPose],
+    drawing: &DrawingTruth,
+) -> Option<TruthCheck> {
+    let problem = file.problem(config);
+    // Each trajectory pose with its true place on the drawing (drawing frame: u, −v).
+    let carried: Vec<(f64, SketchPose)> = truth
+        .iter()
+        .map(|t| (t.t_s, drawing.world_to_drawing(&t.pose)))
+        .collect();
+    let (map_poses, on_drawing) = pair_by_stamp(trajectory, &carried);
+    let pairs: Vec<(Point2, Point2)> = map_poses
+        .iter()
+        .zip(&on_drawing)
+        .map(|(m, d)| (m.pose.position(), Point2::new(d.u_px, -d.v_px)))
+        .collect();
+    let finite = problem
+        .walls
+        .iter()
+        .filter(|p| p.x.is_finite() && p.y.is_finite());
+    let (lo, hi) = finite.fold(
+        (
+            Point2::new(f64::MAX, f64::MAX),
+            Point2::new(f64::MIN, f64::MIN),
+        ),
+        |(lo, hi), p| {
+            (
+                Point2::new(lo.x.min(p.x), lo.y.min(p.y)),
+                Point2::new(hi.x.max(p.x), hi.y.max(p.y)),
+            )
+        },
+    );
+    let grid = ControlGrid::covering(lo, hi, config.spacing_m);
+    let start = warp_through(&pairs, grid, problem.prior.scale_px_per_m())?;
+    let fine = FitConfig {
+        levels: 1,
+        ..config
+    };
+    let still = FitConfig {
+        similarity_iterations: 0,
+        warp_iterations: 0,
+        ..fine
+    };
+    let energy_at = |w: &Warp| {
+        fit_warp_from(
+            &problem.walls,
+            &problem.lines,
+            problem.prior,
+            &still,
+            w.clone(),
+        )
+        .map(|f| f.1)
+    };
+    let median = |w: &Warp| {
+        let published: Vec<_> = trajectory
+            .iter()
+            .map(|t| (t.t_s, w.pose_on_drawing(&t.pose)))
+            .collect();
+        let (t, e) = pair_by_stamp(truth, &published);
+        score_sketch_poses(&t, &e, drawing).map(|s| s.median_m)
+    };
+    let (refit, energy_refit) = fit_warp_from(
+        &problem.walls,
+        &problem.lines,
+        problem.prior,
+        &fine,
+        start.clone(),
+    )?;
+    Some(TruthCheck {
+        energy_found: energy_at(found)?,
+        energy_truth: energy_at(&start)?,
+        energy_refit,
+        refit_median_m: median(&refit.warp)?,
+        truth_median_m: median(&start)?,
+    })
+}
+
+/// The warp on `grid` through `pairs` (map meters → drawing frame pixels) by least squares: a
+/// similarity, then the offsets of the residuals, smoothed between neighbouring nodes
+/// (`scale_px_per_m` sets the smoothing's units) so nodes far from the pairs follow theirs.
+fn warp_through(
+    pairs: &[(Point2, Point2)],
+    grid: ControlGrid,
+    scale_px_per_m: f64,
+) -> Option<Warp> {
+    use nalgebra::{DMatrix, DVector, Matrix4, Vector4};
+    if pairs.len() < 3 {
+        return None;
+    }
+    let (mut h, mut g) = (Matrix4::<f64>::zeros(), Vector4::<f64>::zeros());
+    for (p, q) in pairs {
+        for (row, y) in [
+            (Vector4::new(p.x, -p.y, 1.0, 0.0), q.x),
+            (Vector4::new(p.y, p.x, 0.0, 1.0), q.y),
+        ] {
+            h += row * row.transpose();
+            g += row * y;
+        }
+    }
+    let x = h.cholesky()?.solve(&g);
+    let similarity = Similarity {
+        a: x[0],
+        b: x[1],
+        t: Point2::new(x[2], x[3]),
+    };
+    let n = grid.len();
+    let mut m = DMatrix::<f64>::zeros(n, n);
+    let (mut bx, mut by) = (DVector::<f64>::zeros(n), DVector::<f64>::zeros(n));
+    for (p, q) in pairs {
+        let s = similarity.apply(*p);
+        let w = grid.weights(*p);
+        for &(k, wk) in &w {
+            bx[k] += wk * (q.x - s.x);
+            by[k] += wk * (q.y - s.y);
+            for &(l, wl) in &w {
+                m[(k, l)] += wk * wl;
+            }
+        }
+    }
+    // A membrane between neighbours, weak against the pairs (a pose a meter apart counts more).
+    let lambda = 1.0;
+    let ridge = 1e-6 * scale_px_per_m.max(1e-9).recip();
+    for k in 0..n {
+        let (i, j) = (k % grid.columns, k / grid.columns);
+        let mut neighbours = Vec::new();
+        if i + 1 < grid.columns {
+            neighbours.push(k + 1);
+        }
+        if j + 1 < grid.rows {
+            neighbours.push(k + grid.columns);
+        }
+        for l in neighbours {
+            m[(k, k)] += lambda;
+            m[(l, l)] += lambda;
+            m[(k, l)] -= lambda;
+            m[(l, k)] -= lambda;
+        }
+        m[(k, k)] += ridge;
+    }
+    let chol = m.cholesky()?;
+    let (ox, oy) = (chol.solve(&bx), chol.solve(&by));
+    let mut warp = Warp::rigid(similarity, grid);
+    for (k, o) in warp.offsets.iter_mut().enumerate() {
+        *o = Point2::new(ox[k], oy[k]);
+    }
+    Some(warp)
 }
