@@ -243,14 +243,31 @@ pub fn fit_warp(
     // is reached a region's search at a time.
     let mut best = best;
     for _ in 0..REGION_ROUNDS {
-        let Some(better) = region_starts(&problem.points, &field, &best.0.warp, grid, config, s0)
+        // Told apart on the coarsest grid, as the starts are: the best fit's own refit there,
+        // against each move's; the best move that beats it goes on to the finer grids.
+        let coarse = Stages {
+            similarity: false,
+            levels: 0..1,
+        };
+        let here = problem
+            .fit_from(best.0.warp.resampled(grid), &prior, config, coarse.clone())
+            .1;
+        let Some(moved) = region_starts(&problem.points, &field, &best.0.warp, grid, config, s0)
             .into_iter()
-            .map(|start| problem.fit_from(start, &prior, config, Stages::all_grids(levels)))
+            .map(|start| problem.fit_from(start, &prior, config, coarse.clone()))
+            .filter(|f| f.1 < here)
             .min_by(|a, b| a.1.total_cmp(&b.1))
-            .filter(|f| f.1 < best.1)
         else {
             break;
         };
+        let better = if levels > 1 {
+            problem.fit_from(moved.0.warp, &prior, config, Stages::rest(levels))
+        } else {
+            moved
+        };
+        if better.1 >= best.1 {
+            break;
+        }
         best = better;
     }
     Some(best.0)
@@ -383,14 +400,6 @@ impl Stages {
         Self {
             similarity: false,
             levels: 1..levels,
-        }
-    }
-
-    /// Every grid, from a warp already fitted (the region search's moves).
-    fn all_grids(levels: usize) -> Self {
-        Self {
-            similarity: false,
-            levels: 0..levels,
         }
     }
 }

@@ -21,12 +21,13 @@
 //! (`D_b` the distance field of the drawn lines of the point's direction, `τ` the last gate,
 //! as the global search's `J`), over `|δ_x|, |δ_y| ≤ proportion_error · extent / 2` (how far
 //! a person's proportion error carries a point from where the whole-floor fit puts it) at
-//! steps of half the gate. A node whose best `G_k` exceeds `G_k(0)` by more than
+//! steps of the gate, then about the best at steps of half the gate. A node whose best `G_k` exceeds `G_k(0)` by more than
 //! [`MIN_GAIN_POINTS`] proposes that move; the best few, and all of them at once, are the
 //! new starts.
 //!
-//! Cost: O(n · 4 · (extent · proportion_error / gate)²) lookups (every point is in four
-//! nodes' regions): 10⁴ points on a 60 m floor, 10⁷ lookups; then one fit per start.
+//! Cost: O(n · 4 · (extent · proportion_error / 2 gate)²) lookups (every point is in four
+//! nodes' regions): 10⁴ points on a 60 m floor, 10⁷ lookups; then a coarsest-grid fit per
+//! move.
 //!
 //! Pure: values in, values out.
 
@@ -90,10 +91,28 @@ pub(super) fn region_starts(
             continue;
         }
         let here = gain_at(m, 0.0, 0.0);
+        // A grid at the gate's step (the kernel is a gate wide each way, so a peak lies
+        // within half a step of a grid point and scores three quarters of its height
+        // there), then its best point's neighbours at half the step.
+        let step_px = 2.0 * step_m * s0;
         let mut best = (here, Point2::new(0.0, 0.0));
-        for iy in -n_steps..=n_steps {
-            for ix in -n_steps..=n_steps {
-                let d = Point2::new(ix as f64 * step_m * s0, iy as f64 * step_m * s0);
+        let coarse = n_steps / 2;
+        for iy in -coarse..=coarse {
+            for ix in -coarse..=coarse {
+                let d = Point2::new(ix as f64 * step_px, iy as f64 * step_px);
+                let g = gain_at(m, d.x, d.y);
+                if g > best.0 {
+                    best = (g, d);
+                }
+            }
+        }
+        let centre = best.1;
+        for iy in -1..=1 {
+            for ix in -1..=1 {
+                let d = Point2::new(
+                    centre.x + 0.5 * ix as f64 * step_px,
+                    centre.y + 0.5 * iy as f64 * step_px,
+                );
                 let g = gain_at(m, d.x, d.y);
                 if g > best.0 {
                     best = (g, d);

@@ -30,7 +30,7 @@
 //! term over `|φ| ≤ k σ_φ`, the best two); (2) about each, a grid over `(u, φ ± one step, d)`
 //! at steps that move the farthest wall point by half the gate (every k-th point, at most
 //! `COARSE_POINTS`); (3) from its best local maxima a pattern search over `(u, φ, d)`
-//! (3⁴ neighbours) halving the steps twice; (4) for each, the first and the second axis'
+//! (3⁴ neighbours) halving the steps twice; (4) for the best four, the first and the second axis'
 //! scale and translation in turn over grids of `(v, d)` (coordinate ascent, twice). The
 //! search returns the stretched and the unstretched maxima, best first, one per maximum.
 //!
@@ -53,6 +53,9 @@ const COARSE_POINTS: usize = 1000;
 const BINS_PER_TOLERANCE: f64 = 2.0;
 /// Local maxima of the grid refined.
 const SEEDS: usize = 12;
+/// The best refined maxima whose axes are let scale apart (each costs a grid over two
+/// axes' scale and translation with every point).
+const STRETCHED: usize = 4;
 /// Rotations (local maxima of the wall directions' match) searched.
 const ROTATIONS: usize = 2;
 /// Step of the rotations tried against the wall directions, radians.
@@ -622,7 +625,7 @@ pub(super) fn search_starts(
     // only: the best similarity then lays part of the floor right and the rest off, and
     // the true stretch may start from another maximum than the best), best first.
     let mut stretched: Vec<Candidate> = Vec::with_capacity(2 * kept.len());
-    for seed in &kept {
+    for seed in kept.iter().take(STRETCHED) {
         let mut s = *seed;
         stretch(&scorer, &mut s, du0, dd0, tau_px, k);
         if s.v != 0.0 {
