@@ -171,6 +171,23 @@ pub(super) struct WallPoint {
 }
 
 impl Segment {
+    /// The corners of the box holding every end of `segments` (inverted, MAX and MIN, when
+    /// there are none).
+    pub(super) fn bounds(segments: &[Segment]) -> (Point2, Point2) {
+        segments.iter().flat_map(|s| [s.a, s.b]).fold(
+            (
+                Point2::new(f64::MAX, f64::MAX),
+                Point2::new(f64::MIN, f64::MIN),
+            ),
+            |(lo, hi), p| {
+                (
+                    Point2::new(lo.x.min(p.x), lo.y.min(p.y)),
+                    Point2::new(hi.x.max(p.x), hi.y.max(p.y)),
+                )
+            },
+        )
+    }
+
     /// The nearest point of the segment to `p`.
     pub(super) fn foot(&self, p: Point2) -> Point2 {
         let (dx, dy) = (self.b.x - self.a.x, self.b.y - self.a.y);

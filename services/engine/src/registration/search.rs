@@ -99,16 +99,7 @@ impl DirectionField {
         let tolerance_rad = tolerance_rad.clamp(1e-3, PI / 2.0);
         let bins = ((BINS_PER_TOLERANCE * PI / tolerance_rad).ceil() as usize).clamp(1, 180);
         let bin_rad = PI / bins as f64;
-        let (mut lo, mut hi) = (
-            Point2::new(f64::MAX, f64::MAX),
-            Point2::new(f64::MIN, f64::MIN),
-        );
-        for s in segments {
-            for p in [s.a, s.b] {
-                lo = Point2::new(lo.x.min(p.x), lo.y.min(p.y));
-                hi = Point2::new(hi.x.max(p.x), hi.y.max(p.y));
-            }
-        }
+        let (lo, hi) = Segment::bounds(segments);
         let origin_px = Point2::new(lo.x - reach_px, lo.y - reach_px);
         let columns = (((hi.x - lo.x + 2.0 * reach_px) / cell_px).ceil() as usize + 1).min(8192);
         let rows = (((hi.y - lo.y + 2.0 * reach_px) / cell_px).ceil() as usize + 1).min(8192);
@@ -608,19 +599,7 @@ pub(super) fn search_starts(
             seed.objective = best;
         }
     }
-    seeds.sort_by(|x, y| y.objective.total_cmp(&x.objective));
-    // Seeds that climbed onto the same maximum: keep the first.
-    let mut kept: Vec<Candidate> = Vec::new();
-    for s in seeds {
-        if !kept.iter().any(|k| {
-            (k.u - s.u).abs() <= 2.0 * du
-                && (k.phi_rad - s.phi_rad).abs() <= 2.0 * dphi
-                && (k.d_m.x - s.d_m.x).abs() <= 2.0 * dd
-                && (k.d_m.y - s.d_m.y).abs() <= 2.0 * dd
-        }) {
-            kept.push(s);
-        }
-    }
+    let kept = distinct(seeds, du, dphi, dd);
     // Each, its axes let scale apart (a drawing's proportions may be wrong along one axis
     // only: the best similarity then lays part of the floor right and the rest off, and
     // the true stretch may start from another maximum than the best), best first.
@@ -633,20 +612,26 @@ pub(super) fn search_starts(
         }
     }
     stretched.extend(kept);
-    stretched.sort_by(|x, y| y.objective.total_cmp(&x.objective));
-    let mut starts: Vec<Candidate> = Vec::new();
-    for s in stretched {
-        if !starts.iter().any(|k| {
+    distinct(stretched, du, dphi, dd)
+}
+
+/// `candidates` best first, each kept only when no better one lies within two steps (`du`
+/// in u and v, `dphi`, `dd`) of it: seeds that climbed onto the same maximum count once.
+fn distinct(mut candidates: Vec<Candidate>, du: f64, dphi: f64, dd: f64) -> Vec<Candidate> {
+    candidates.sort_by(|x, y| y.objective.total_cmp(&x.objective));
+    let mut kept: Vec<Candidate> = Vec::new();
+    for s in candidates {
+        if !kept.iter().any(|k| {
             (k.u - s.u).abs() <= 2.0 * du
                 && (k.v - s.v).abs() <= 2.0 * du
                 && (k.phi_rad - s.phi_rad).abs() <= 2.0 * dphi
                 && (k.d_m.x - s.d_m.x).abs() <= 2.0 * dd
                 && (k.d_m.y - s.d_m.y).abs() <= 2.0 * dd
         }) {
-            starts.push(s);
+            kept.push(s);
         }
     }
-    starts
+    kept
 }
 
 #[cfg(test)]

@@ -30,16 +30,7 @@ impl SegmentGrid {
         if segments.is_empty() || !(reach_px > 0.0 && reach_px.is_finite()) {
             return None;
         }
-        let (mut lo, mut hi) = (
-            Point2::new(f64::MAX, f64::MAX),
-            Point2::new(f64::MIN, f64::MIN),
-        );
-        for s in segments {
-            for p in [s.a, s.b] {
-                lo = Point2::new(lo.x.min(p.x), lo.y.min(p.y));
-                hi = Point2::new(hi.x.max(p.x), hi.y.max(p.y));
-            }
-        }
+        let (lo, hi) = Segment::bounds(segments);
         // At most 512 cells a side: a wider floor gets larger cells.
         let span = (hi.x - lo.x).max(hi.y - lo.y) + 2.0 * reach_px;
         let cell_px = reach_px.max(span / 512.0);
