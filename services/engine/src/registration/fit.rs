@@ -171,23 +171,6 @@ pub(super) struct WallPoint {
 }
 
 impl Segment {
-    /// The corners of the box holding every end of `segments` (inverted, MAX and MIN, when
-    /// there are none).
-    pub(super) fn bounds(segments: &[Segment]) -> (Point2, Point2) {
-        segments.iter().flat_map(|s| [s.a, s.b]).fold(
-            (
-                Point2::new(f64::MAX, f64::MAX),
-                Point2::new(f64::MIN, f64::MIN),
-            ),
-            |(lo, hi), p| {
-                (
-                    Point2::new(lo.x.min(p.x), lo.y.min(p.y)),
-                    Point2::new(hi.x.max(p.x), hi.y.max(p.y)),
-                )
-            },
-        )
-    }
-
     /// The nearest point of the segment to `p`.
     pub(super) fn foot(&self, p: Point2) -> Point2 {
         let (dx, dy) = (self.b.x - self.a.x, self.b.y - self.a.y);
@@ -199,6 +182,29 @@ impl Segment {
         };
         Point2::new(self.a.x + t * dx, self.a.y + t * dy)
     }
+}
+
+/// The corners of the box holding `points` (inverted, MAX and MIN, when there are none).
+pub(super) fn bounds(points: impl IntoIterator<Item = Point2>) -> (Point2, Point2) {
+    points.into_iter().fold(
+        (
+            Point2::new(f64::MAX, f64::MAX),
+            Point2::new(f64::MIN, f64::MIN),
+        ),
+        |(lo, hi), p| {
+            (
+                Point2::new(lo.x.min(p.x), lo.y.min(p.y)),
+                Point2::new(hi.x.max(p.x), hi.y.max(p.y)),
+            )
+        },
+    )
+}
+
+/// The control grid's spacing at `level` of the fit's coarse-to-fine levels, meters
+/// (0 the coarsest): `2^(levels − 1 − level) · spacing_m`.
+fn level_spacing_m(config: &FitConfig, level: usize) -> f64 {
+    let levels = config.levels.max(1);
+    config.spacing_m * f64::from(1u32 << (levels - 1 - level.min(levels - 1)).min(8))
 }
 
 /// The module doc's fit of W to `points` (map meters, non-finite ones ignored) against
@@ -218,12 +224,17 @@ pub fn fit_warp(
         .max(config.spacing_m);
     let corners = ControlGrid::covering(problem.lo, problem.hi, extent_m);
     let mut starts = vec![Warp::rigid(prior, corners)];
-    starts.extend(
-        search_starts(&problem.points, &problem.segments, &prior, config)
-            .iter()
-            .take(config.search_starts)
-            .map(|c| c.warp(&prior, corners)),
-    );
+    // The drawn lines' distance field, read by the search and by the region search.
+    let s0 = prior.scale_px_per_m();
+    let field = DirectionField::for_fit(&problem.segments, config, s0);
+    if let Some(field) = &field {
+        starts.extend(
+            search_starts(&problem.points, &problem.segments, field, &prior, config)
+                .iter()
+                .take(config.search_starts)
+                .map(|c| c.warp(&prior, corners)),
+        );
+    }
     // The most probable fit: the least `E` (the module doc's, each point beyond the gate
     // counted at the gate), after the first stages from every start, then at the end from
     // the best few of those.
@@ -245,17 +256,10 @@ pub fn fit_warp(
         })
         .min_by(|a, b| a.1.total_cmp(&b.1))?;
     // Regions laid a room over: moved beyond the gate and fitted again (`region_search`).
-    let s0 = prior.scale_px_per_m();
-    let coarsest_m = config.spacing_m * f64::from(1u32 << (config.levels.max(1) - 1).min(8));
-    let Some(field) = DirectionField::new(
-        &problem.segments,
-        config.direction_tolerance_rad,
-        0.25 * config.gate_m.max(1e-3) * s0,
-        config.gate_m.max(1e-3) * s0,
-    ) else {
+    let Some(field) = field else {
         return Some(best.0);
     };
-    let grid = ControlGrid::covering(problem.lo, problem.hi, coarsest_m);
+    let grid = ControlGrid::covering(problem.lo, problem.hi, level_spacing_m(config, 0));
     // Round after round while a move ends more probable: a wing drawn far out of proportion
     // is reached a region's search at a time.
     let mut best = best;
@@ -362,18 +366,7 @@ impl Prepared {
         if segments.is_empty() {
             return None;
         }
-        let (lo, hi) = points.iter().map(|w| w.p).fold(
-            (
-                Point2::new(f64::MAX, f64::MAX),
-                Point2::new(f64::MIN, f64::MIN),
-            ),
-            |(lo, hi), p| {
-                (
-                    Point2::new(lo.x.min(p.x), lo.y.min(p.y)),
-                    Point2::new(hi.x.max(p.x), hi.y.max(p.y)),
-                )
-            },
-        );
+        let (lo, hi) = bounds(points.iter().map(|w| w.p));
         let index = SegmentGrid::new(&segments, widest_gate_m(config) * s0)?;
         Some(Self {
             points,
@@ -384,6 +377,9 @@ impl Prepared {
         })
     }
 
+    /// The fit's `stages` (similarity, then the control grids coarse to fine) from
+    /// `start`; a run that starts past the similarity starts at its first level's gate (a
+    /// gate never widens again).
     fn fit_from(
         &self,
         start: Warp,
@@ -391,7 +387,85 @@ impl Prepared {
         config: &FitConfig,
         stages: Stages,
     ) -> (WarpFit, f64) {
-        fit_from(self, start, stages, prior, config)
+        let (points, segments, index, lo, hi) = (
+            self.points.as_slice(),
+            self.segments.as_slice(),
+            &self.index,
+            self.lo,
+            self.hi,
+        );
+        let s0 = prior.scale_px_per_m();
+        let prior = *prior;
+        let px = |m: f64| m * s0;
+        let cos_tol = config.direction_tolerance_rad.clamp(0.0, FRAC_PI_2).cos();
+        // Coarse to fine: spacings 2^(L−1)·s … s. A level's gate is what its cells cannot bend:
+        // a person's proportion error over half a cell, and at least `gate_m`.
+        let levels = config.levels.max(1);
+        let spacing_at = |level: usize| level_spacing_m(config, level);
+        let level_gate_px =
+            |spacing_m: f64| px((0.5 * config.proportion_error * spacing_m).max(config.gate_m));
+        let mut warp = start;
+        // The similarity first, its gate shrinking from the start gate to the first level's.
+        let first_level = stages.levels.start.min(levels - 1);
+        let mut gate_px = if stages.similarity {
+            px(config.start_gate_m.max(config.gate_m))
+        } else {
+            level_gate_px(spacing_at(first_level))
+        };
+        let similarity_iterations = if stages.similarity {
+            config.similarity_iterations
+        } else {
+            0
+        };
+        for _ in 0..similarity_iterations {
+            let pairs = associate(&warp, points, segments, index, gate_px, cos_tol);
+            let Some(step) = solve_step(&warp, &pairs, &prior, config, false) else {
+                break;
+            };
+            apply_step(&mut warp, &step, false);
+            let shrunk = (gate_px * 0.8).max(level_gate_px(spacing_at(0)));
+            if converged(&step, lo, hi, s0) && shrunk == gate_px {
+                break;
+            }
+            gate_px = shrunk;
+        }
+        for level in stages.levels.start..stages.levels.end.min(levels) {
+            let spacing_m = spacing_at(level);
+            warp = warp.resampled(ControlGrid::covering(lo, hi, spacing_m));
+            gate_px = gate_px.min(level_gate_px(spacing_m));
+            for _ in 0..config.warp_iterations {
+                let pairs = associate(&warp, points, segments, index, gate_px, cos_tol);
+                let Some(step) = solve_step(&warp, &pairs, &prior, config, true) else {
+                    break;
+                };
+                apply_step(&mut warp, &step, true);
+                if converged(&step, lo, hi, s0) {
+                    break;
+                }
+            }
+        }
+        let grid = warp.grid;
+        let pairs = associate(&warp, points, segments, index, gate_px, cos_tol);
+        let mut support = vec![0.0; grid.len()];
+        let mut sum_sq = 0.0;
+        for pair in &pairs {
+            sum_sq += pair.distance_px * pair.distance_px;
+            for (k, w) in grid.weights(pair.p) {
+                support[k] += w;
+            }
+        }
+        // E at the fit: the inliers' residuals, every other point at the gate, the priors.
+        let sigma_l_px = (config.line_sigma_m * s0).max(1e-6);
+        let outliers = points.len().saturating_sub(pairs.len()) as f64;
+        let cost = (sum_sq + outliers * gate_px * gate_px) / (sigma_l_px * sigma_l_px)
+            + normal_equations(&warp, &[], &prior, config, true).2;
+        let fit = WarpFit {
+            warp,
+            inliers: pairs.len(),
+            rms_px: (sum_sq / pairs.len().max(1) as f64).sqrt(),
+            support,
+        };
+        (fit, cost)
     }
 }
 
@@ -421,99 +495,6 @@ impl Stages {
     }
 }
 
-/// The fit's `stages` (similarity, then the control grids coarse to fine) from `start`; a
-/// run that starts past the similarity starts at its first level's gate (a gate never
-/// widens again).
-fn fit_from(
-    problem: &Prepared,
-    start: Warp,
-    stages: Stages,
-    prior: &Similarity,
-    config: &FitConfig,
-) -> (WarpFit, f64) {
-    let Prepared {
-        points,
-        segments,
-        index,
-        lo,
-        hi,
-    } = problem;
-    let (points, segments, lo, hi) = (points.as_slice(), segments.as_slice(), *lo, *hi);
-    let s0 = prior.scale_px_per_m();
-    let prior = *prior;
-    let px = |m: f64| m * s0;
-    let cos_tol = config.direction_tolerance_rad.clamp(0.0, FRAC_PI_2).cos();
-    // Coarse to fine: spacings 2^(L−1)·s … s. A level's gate is what its cells cannot bend:
-    // a person's proportion error over half a cell, and at least `gate_m`.
-    let levels = config.levels.max(1);
-    let spacing_at =
-        |level: usize| config.spacing_m * f64::from(1u32 << (levels - 1 - level).min(8));
-    let level_gate_px =
-        |spacing_m: f64| px((0.5 * config.proportion_error * spacing_m).max(config.gate_m));
-    let mut warp = start;
-    // The similarity first, its gate shrinking from the start gate to the first level's.
-    let first_level = stages.levels.start.min(levels - 1);
-    let mut gate_px = if stages.similarity {
-        px(config.start_gate_m.max(config.gate_m))
-    } else {
-        level_gate_px(spacing_at(first_level))
-    };
-    let similarity_iterations = if stages.similarity {
-        config.similarity_iterations
-    } else {
-        0
-    };
-    for _ in 0..similarity_iterations {
-        let pairs = associate(&warp, points, segments, index, gate_px, cos_tol);
-        let Some(step) = solve_step(&warp, &pairs, &prior, config, false) else {
-            break;
-        };
-        apply_step(&mut warp, &step, false);
-        let shrunk = (gate_px * 0.8).max(level_gate_px(spacing_at(0)));
-        if converged(&step, lo, hi, s0) && shrunk == gate_px {
-            break;
-        }
-        gate_px = shrunk;
-    }
-    for level in stages.levels.start..stages.levels.end.min(levels) {
-        let spacing_m = spacing_at(level);
-        warp = warp.resampled(ControlGrid::covering(lo, hi, spacing_m));
-        gate_px = gate_px.min(level_gate_px(spacing_m));
-        for _ in 0..config.warp_iterations {
-            let pairs = associate(&warp, points, segments, index, gate_px, cos_tol);
-            let Some(step) = solve_step(&warp, &pairs, &prior, config, true) else {
-                break;
-            };
-            apply_step(&mut warp, &step, true);
-            if converged(&step, lo, hi, s0) {
-                break;
-            }
-        }
-    }
-    let grid = warp.grid;
-    let pairs = associate(&warp, points, segments, index, gate_px, cos_tol);
-    let mut support = vec![0.0; grid.len()];
-    let mut sum_sq = 0.0;
-    for pair in &pairs {
-        sum_sq += pair.distance_px * pair.distance_px;
-        for (k, w) in grid.weights(pair.p) {
-            support[k] += w;
-        }
-    }
-    // E at the fit: the inliers' residuals, every other point at the gate, the priors.
-    let sigma_l_px = (config.line_sigma_m * s0).max(1e-6);
-    let outliers = points.len().saturating_sub(pairs.len()) as f64;
-    let cost = (sum_sq + outliers * gate_px * gate_px) / (sigma_l_px * sigma_l_px)
-        + normal_equations(&warp, &[], &prior, config, true).2;
-    let fit = WarpFit {
-        warp,
-        inliers: pairs.len(),
-        rms_px: (sum_sq / pairs.len().max(1) as f64).sqrt(),
-        support,
-    };
-    (fit, cost)
-}
-
 /// Whether a Gauss–Newton step moved no point of the map's extent (corners `lo`, `hi`) by
 /// more than [`CONVERGED_M`] (at the prior's scale `s0` px/m): the next association would be
 /// the same, and so the next step nothing.
@@ -531,11 +512,10 @@ const CONVERGED_M: f64 = 1e-3;
 
 /// The widest gate [`fit_from`] uses, meters: the start gate, or the coarsest level's.
 fn widest_gate_m(config: &FitConfig) -> f64 {
-    let coarsest_m = config.spacing_m * f64::from(1u32 << (config.levels.max(1) - 1).min(8));
     config
         .start_gate_m
         .max(config.gate_m)
-        .max(0.5 * config.proportion_error * coarsest_m)
+        .max(0.5 * config.proportion_error * level_spacing_m(config, 0))
 }
 
 /// A wall point paired with the nearest drawn line of its direction.

@@ -39,7 +39,7 @@
 //! the gate over the floor's radius: about 10⁵ on a 40 m floor, 10⁸ lookups), tenths of a
 //! second.
 
-use super::fit::{FitConfig, Segment, WallPoint};
+use super::fit::{FitConfig, Segment, WallPoint, bounds};
 use super::warp::{ControlGrid, Similarity, Warp};
 use sketchslam_types::Point2;
 use std::f64::consts::PI;
@@ -99,7 +99,7 @@ impl DirectionField {
         let tolerance_rad = tolerance_rad.clamp(1e-3, PI / 2.0);
         let bins = ((BINS_PER_TOLERANCE * PI / tolerance_rad).ceil() as usize).clamp(1, 180);
         let bin_rad = PI / bins as f64;
-        let (lo, hi) = Segment::bounds(segments);
+        let (lo, hi) = bounds(segments.iter().flat_map(|s| [s.a, s.b]));
         let origin_px = Point2::new(lo.x - reach_px, lo.y - reach_px);
         let columns = (((hi.x - lo.x + 2.0 * reach_px) / cell_px).ceil() as usize + 1).min(8192);
         let rows = (((hi.y - lo.y + 2.0 * reach_px) / cell_px).ceil() as usize + 1).min(8192);
@@ -147,6 +147,19 @@ impl DirectionField {
             reach_px,
             distance_px,
         })
+    }
+
+    /// The field the fit scores with ([`super::fit`]'s search and region search): the
+    /// fit's direction tolerance, cells of a quarter of its last gate, truncated at the
+    /// gate; `s0` the prior's pixels per meter.
+    pub(super) fn for_fit(segments: &[Segment], config: &FitConfig, s0: f64) -> Option<Self> {
+        let gate_px = config.gate_m.max(1e-3) * s0;
+        Self::new(
+            segments,
+            config.direction_tolerance_rad,
+            0.25 * gate_px,
+            gate_px,
+        )
     }
 
     /// The distance from `w` (drawing frame, pixels) to the nearest drawn line whose normal
@@ -437,6 +450,7 @@ fn stretch(scorer: &Scorer, seed: &mut Candidate, du: f64, dd: f64, tau_px: f64,
 pub(super) fn search_starts(
     points: &[WallPoint],
     segments: &[Segment],
+    field: &DirectionField,
     prior: &Similarity,
     config: &FitConfig,
 ) -> Vec<Candidate> {
@@ -446,14 +460,6 @@ pub(super) fn search_starts(
         return Vec::new();
     }
     let gate_m = config.gate_m.max(1e-3);
-    let Some(field) = DirectionField::new(
-        segments,
-        config.direction_tolerance_rad,
-        0.25 * gate_m * s0,
-        gate_m * s0,
-    ) else {
-        return Vec::new();
-    };
     let stride = points.len().div_ceil(MAX_POINTS);
     // The walls' dominant axis: the mean of their normals' angles taken four times over
     // (a wall and the walls across it count alike).
@@ -468,7 +474,7 @@ pub(super) fn search_starts(
             .step_by(stride)
             .map(|w| (w.p, normal_angle(w.normal)))
             .collect(),
-        field: &field,
+        field,
         prior: *prior,
         sigma_u: config.scale_error.max(1e-3),
         sigma_v: config.proportion_error.max(1e-3),
@@ -693,6 +699,17 @@ mod tests {
         (points, segments)
     }
 
+    /// [`search_starts`] with the field the fit builds.
+    fn starts_of(
+        points: &[WallPoint],
+        segments: &[Segment],
+        prior: &Similarity,
+        config: &FitConfig,
+    ) -> Vec<Candidate> {
+        let field = DirectionField::for_fit(segments, config, prior.scale_px_per_m()).unwrap();
+        search_starts(points, segments, &field, prior, config)
+    }
+
     /// The farthest any of `points` lands from where `truth` puts it, pixels.
     fn farthest_px(
         c: &Candidate,
@@ -713,7 +730,7 @@ mod tests {
         let (prior, truth) = prior_and_truth();
         let (points, segments) = scene(&truth);
         let config = FitConfig::default();
-        let starts = search_starts(&points, &segments, &prior, &config);
+        let starts = starts_of(&points, &segments, &prior, &config);
         // The truth: u = ln 1.3 = 0.262, v = 0, φ = 0, d = (10, 5) px / 10 px/m = (1, 0.5) m.
         // The best similarity: the search's last steps are an eighth of the gate (1 m) over
         // the farthest point (22.8 m from the start): 0.0055 in u and φ, 0.125 m in d; its
@@ -758,7 +775,7 @@ mod tests {
                 }
             })
             .collect();
-        let best = search_starts(&points, &segments, &prior, &FitConfig::default())[0];
+        let best = starts_of(&points, &segments, &prior, &FitConfig::default())[0];
         let half = 0.5 * 1.3f64.ln();
         // Within the grid's step in v (half the gate over the farthest point: 0.022).
         assert!(
@@ -812,7 +829,7 @@ mod tests {
         }
         // The mark: the start where it is drawn, turned back by the 8°, 10 px/m.
         let prior = Similarity::new(10.0, turn, Point2::new(100.0, -100.0));
-        let best = search_starts(&points, &segments, &prior, &FitConfig::default())[0];
+        let best = starts_of(&points, &segments, &prior, &FitConfig::default())[0];
         // The walls' first axis is the map's −8° (world x), and the stretch along it
         // u + v = ln 1.3, across it u − v = 0.
         assert!((best.axes_rad + turn).abs() < 1e-6, "{best:?}");
@@ -836,7 +853,7 @@ mod tests {
     fn a_right_prior_still_wins() {
         let (prior, _) = prior_and_truth();
         let (points, segments) = scene(&prior);
-        let best = search_starts(&points, &segments, &prior, &FitConfig::default())[0];
+        let best = starts_of(&points, &segments, &prior, &FitConfig::default())[0];
         assert!(best.u.abs() < 0.01 && best.phi_rad.abs() < 0.01, "{best:?}");
         assert!(best.d_m.x.abs() < 0.1 && best.d_m.y.abs() < 0.1, "{best:?}");
     }

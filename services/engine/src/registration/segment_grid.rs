@@ -11,7 +11,7 @@
 //! Cost: O(L · (ℓ + 2r)² / c²) to build (L segments of length ℓ, r the reach), with `c = r`
 //! a few cells per unit of segment length; a lookup is O(1) plus its list.
 
-use super::fit::Segment;
+use super::fit::{Segment, bounds};
 use sketchslam_types::Point2;
 
 /// Segment indices per cell.
@@ -30,7 +30,7 @@ impl SegmentGrid {
         if segments.is_empty() || !(reach_px > 0.0 && reach_px.is_finite()) {
             return None;
         }
-        let (lo, hi) = Segment::bounds(segments);
+        let (lo, hi) = bounds(segments.iter().flat_map(|s| [s.a, s.b]));
         // At most 512 cells a side: a wider floor gets larger cells.
         let span = (hi.x - lo.x).max(hi.y - lo.y) + 2.0 * reach_px;
         let cell_px = reach_px.max(span / 512.0);
