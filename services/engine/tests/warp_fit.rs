@@ -4,6 +4,8 @@
 //! and a drawing stretched or sheared as a whole, which the bending prior lets through
 //! exactly.
 
+mod common;
+
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use sketchslam_engine::registration::{FitConfig, Similarity, fit_warp};
@@ -57,26 +59,11 @@ fn drawn(p: Point2) -> Point2 {
 
 /// The drawing's lines (pixels), each wall split where the proportions kink.
 fn drawing() -> Vec<SketchLine> {
-    let mut lines = Vec::new();
-    for ((ax, ay), (bx, by)) in WALLS {
-        let (a, b) = (Point2::new(ax, ay), Point2::new(bx, by));
-        let mut cuts = vec![a];
-        if (a.x - KINK_X_M) * (b.x - KINK_X_M) < 0.0 {
-            let t = (KINK_X_M - a.x) / (b.x - a.x);
-            cuts.push(Point2::new(KINK_X_M, a.y + t * (b.y - a.y)));
-        }
-        cuts.push(b);
-        for w in cuts.windows(2) {
-            let (da, db) = (drawn(w[0]), drawn(w[1]));
-            let index = lines.len();
-            lines.push(SketchLine::new(
-                index,
-                Point2::new(da.x, -da.y),
-                Point2::new(db.x, -db.y),
-            ));
-        }
-    }
-    lines
+    let walls: Vec<common::Seg> = WALLS
+        .iter()
+        .map(|&((ax, ay), (bx, by))| common::seg(ax, ay, bx, by))
+        .collect();
+    common::drawn_lines(&walls, KINK_X_M, drawn)
 }
 
 /// The map's wall points every 5 cm with a centimetre of noise, a partition nobody drew, and

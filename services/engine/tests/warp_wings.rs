@@ -4,6 +4,8 @@
 //! beyond every gate of the fit; the search over each region's displacement finds the wing,
 //! and the fit from there keeps it.
 
+mod common;
+
 use sketchslam_engine::registration::{FitConfig, Similarity, fit_warp};
 use sketchslam_engine::sketch::SketchLine;
 use sketchslam_types::Point2;
@@ -48,24 +50,7 @@ fn drawn(p: Point2) -> Point2 {
 
 /// The drawing's lines, each wall split where the wings meet.
 fn drawing() -> Vec<SketchLine> {
-    let mut lines = Vec::new();
-    for (a, b) in walls() {
-        let mut cuts = vec![a];
-        if (a.x - WING_X_M) * (b.x - WING_X_M) < 0.0 {
-            cuts.push(Point2::new(WING_X_M, a.y));
-        }
-        cuts.push(b);
-        for w in cuts.windows(2) {
-            let (da, db) = (drawn(w[0]), drawn(w[1]));
-            let index = lines.len();
-            lines.push(SketchLine::new(
-                index,
-                Point2::new(da.x, -da.y),
-                Point2::new(db.x, -db.y),
-            ));
-        }
-    }
-    lines
+    common::drawn_lines(&walls(), WING_X_M, drawn)
 }
 
 #[test]

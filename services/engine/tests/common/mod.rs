@@ -5,6 +5,7 @@
 
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+use sketchslam_engine::sketch::SketchLine;
 use sketchslam_types::{Point2, Pose2, Scan};
 
 /// A wall from one point to another, meters.
@@ -65,4 +66,33 @@ pub fn scan_270(
         })
         .collect();
     Scan::centred(fov, 0.05, max_range_m as f32, ranges_m)
+}
+
+/// The lines a person drew of `walls` (meters) through `drawn` (meters → drawing frame
+/// `(u, −v)` pixels), each wall split where it crosses `x = kink_x_m`, where the drawing's
+/// proportions change: a drawn line is straight only on either side of the kink.
+pub fn drawn_lines(
+    walls: &[Seg],
+    kink_x_m: f64,
+    drawn: impl Fn(Point2) -> Point2,
+) -> Vec<SketchLine> {
+    let mut lines = Vec::new();
+    for &(a, b) in walls {
+        let mut cuts = vec![a];
+        if (a.x - kink_x_m) * (b.x - kink_x_m) < 0.0 {
+            let t = (kink_x_m - a.x) / (b.x - a.x);
+            cuts.push(Point2::new(kink_x_m, a.y + t * (b.y - a.y)));
+        }
+        cuts.push(b);
+        for w in cuts.windows(2) {
+            let (da, db) = (drawn(w[0]), drawn(w[1]));
+            let index = lines.len();
+            lines.push(SketchLine::new(
+                index,
+                Point2::new(da.x, -da.y),
+                Point2::new(db.x, -db.y),
+            ));
+        }
+    }
+    lines
 }
