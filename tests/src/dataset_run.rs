@@ -122,7 +122,7 @@ pub fn run_dataset_in_process(
     let estimate = run.mapper.pose();
     let mut pose = pose_response("in-process", &estimate, &run.mapper.health());
     if let Some(r) = run.mapper.drawing_registration() {
-        pose_through_warp(&mut pose, &r, &estimate.map);
+        pose_through_warp(&mut pose, run.mapper.pose_on_drawing_through(&r));
     }
     if let (Some(cfg), Some(sketch_pose)) = (sketch, pose.sketch.as_ref().map(sketch_pose_of)) {
         write_sketch_artifacts(out_dir, cfg, estimate.map, &sketch_pose)?;

@@ -69,6 +69,7 @@ impl WarpProblemFile {
             config,
             keyframes: self.keyframes,
             map_revision: 0,
+            anchors: Vec::new(),
         }
     }
 

@@ -16,7 +16,7 @@ use sketchslam_engine::registration::drawing_registration::MIN_SUPPORT_POINTS;
 use sketchslam_engine::registration::{
     ControlGrid, DrawingRegistration, Similarity, Warp, WarpFit,
 };
-use sketchslam_engine::sketch::SketchLine;
+use sketchslam_engine::sketch::{SketchLine, SketchPose};
 use sketchslam_types::{Point2, Pose2};
 
 /// 409 while a session has nothing mapped to lay on its drawing.
@@ -30,11 +30,11 @@ pub fn not_registered(session_id: &str) -> ApiError {
     )
 }
 
-/// The pose on the drawing of `response` taken from the warp at the map pose `map` (source
-/// `warp` where mapped walls hold it, `warp_extrapolated` elsewhere; see
-/// `Mapper::drawing_trajectory_through` for why W beats MCL even there).
-pub fn pose_through_warp(response: &mut PoseResponse, r: &DrawingRegistration, map: &Pose2) {
-    let (on, holds) = r.to_drawing(map);
+/// The pose on the drawing of `response`: `on`, read through the warp where `holds`
+/// (source `warp` where mapped walls hold it, `warp_extrapolated` elsewhere; see
+/// `Mapper::drawing_trajectory_through` for why W beats MCL even there), as
+/// `Mapper::pose_on_drawing_through` gives it.
+pub fn pose_through_warp(response: &mut PoseResponse, (on, holds): (SketchPose, bool)) {
     let source = if holds {
         SketchPoseSource::Warp
     } else {
@@ -152,6 +152,7 @@ pub fn registration_from_info(info: &RegistrationInfo) -> Result<DrawingRegistra
         },
         keyframes: info.keyframes as usize,
         map_revision: info.map_revision,
+        anchors: Vec::new(),
     })
 }
 
@@ -248,6 +249,7 @@ mod tests {
             },
             keyframes: 12,
             map_revision: 2,
+            anchors: Vec::new(),
         }
     }
 

@@ -371,7 +371,7 @@ impl Session {
             let estimate = m.pose();
             let mut pose = pose_response(&self.id, &estimate, &m.health());
             if let Some(r) = &warp {
-                pose_through_warp(&mut pose, r, &estimate.map);
+                pose_through_warp(&mut pose, m.pose_on_drawing_through(r));
             }
             let on_drawing = (m.method() == Method::Sketch)
                 .then(|| served_sketch_trajectory(&self.id, &m, warp.as_deref()));
@@ -573,12 +573,14 @@ fn run_mapper(
                 *lock(&shared.last_data) = Some(Instant::now());
                 let is_scan = matches!(event, SensorEvent::Scan(_));
                 let started = Instant::now();
+                let warp = shared.warp.current();
                 let outcome = catch_unwind(AssertUnwindSafe(|| {
                     let mut m = lock(&mapper);
                     m.on_event(&event);
-                    (m.health(), m.pose())
+                    let on_drawing = warp.as_ref().map(|r| m.pose_on_drawing_through(r));
+                    (m.health(), m.pose(), on_drawing)
                 }));
-                let (health, pose) = match outcome {
+                let (health, pose, on_drawing) = match outcome {
                     Ok(v) => v,
                     Err(payload) => {
                         let message = format!("the mapper failed: {}", panic_message(&*payload));
@@ -596,8 +598,8 @@ fn run_mapper(
                     histogram.observe(started.elapsed());
                 }
                 let mut response = pose_response(&session_id, &pose, &health);
-                if let Some(r) = shared.warp.current() {
-                    pose_through_warp(&mut response, &r, &pose.map);
+                if let Some(on) = on_drawing {
+                    pose_through_warp(&mut response, on);
                 }
                 *lock(&shared.pose) = response.clone();
                 let state_changed = {

@@ -1,7 +1,7 @@
 //! A `sketch` session's warp onto its drawing, kept fresh beside the mapper thread: the
 //! last [`DrawingRegistration`], refitted by a worker thread of its own once the map has
-//! moved (a loop correction) or grown by [`REFIT_KEYFRAMES`], and on demand by HTTP
-//! requests that find it stale.
+//! grown by [`REFIT_KEYFRAMES`], and on demand by HTTP requests that find it stale (the map
+//! grown or moved by a loop correction).
 //!
 //! Sits between the session's mapper (behind its mutex) and everything read through W:
 //! the live pose on the drawing ([`super::session`]), the trajectory on the drawing, the
@@ -54,6 +54,26 @@ impl WarpCache {
         self.store(timed_solve(&problem))
     }
 
+    /// The worker's refit: a new fit once the map has grown by [`REFIT_KEYFRAMES`] since
+    /// the last (or when there is none yet), not when it only moved — the live pose is read
+    /// through W in the frame W was fitted in (`Mapper::pose_on_drawing_through`), so a loop
+    /// correction leaves it right, and a refit per correction (one every few keyframes on
+    /// a busy floor) would keep a core busy for nothing. HTTP requests that read W over the
+    /// moved map ask [`WarpCache::fresh`].
+    pub fn grown(&self, mapper: &Mutex<Mapper>) -> Option<Arc<DrawingRegistration>> {
+        let problem = {
+            let m = lock(mapper);
+            if let Some(r) = self
+                .current()
+                .filter(|r| m.keyframe_count() < r.keyframes + REFIT_KEYFRAMES)
+            {
+                return Some(r);
+            }
+            m.warp_problem()?
+        };
+        self.store(timed_solve(&problem))
+    }
+
     /// A new fit on the map as it is now, whatever the last one (the final map of a
     /// stopping session).
     pub fn refit(&self, mapper: &Mutex<Mapper>) -> Option<Arc<DrawingRegistration>> {
@@ -94,7 +114,7 @@ pub fn spawn_worker(
         .name(format!("warp-{robot_id}"))
         .spawn(move || {
             while !stop.load(Ordering::Acquire) {
-                cache.fresh(&mapper);
+                cache.grown(&mapper);
                 std::thread::sleep(REFIT_POLL);
             }
         })

@@ -574,7 +574,24 @@ impl Mapper {
             config: self.config.registration,
             keyframes: closer.poses().len(),
             map_revision: self.map_revision,
+            anchors: closer.poses().to_vec(),
         })
+    }
+
+    /// The robot's pose now on the drawing through `registration`, and whether W holds
+    /// there: the pose taken back to the map as it was at the fit first
+    /// ([`DrawingRegistration::pose_at_fit`]), since a loop closure since has moved the
+    /// map and the pose with it. O(1).
+    pub fn pose_on_drawing_through(
+        &self,
+        registration: &DrawingRegistration,
+    ) -> (SketchPose, bool) {
+        let now = self.current_map_pose();
+        let at_fit = match &self.back_end {
+            Some(b) => registration.pose_at_fit(b.closer.poses(), &now),
+            None => now,
+        };
+        registration.to_drawing(&self.mount.to_robot(at_fit))
     }
 
     /// `sketch` sessions: the drawing the session maps with.
@@ -1053,5 +1070,31 @@ mod tests {
         assert!(fit.inliers > 100, "{}", fit.inliers);
         let (graph, _) = drive_laps(Method::Graph, MapperConfig::default(), |_, _| {});
         assert!(graph.drawing_registration().is_none());
+    }
+
+    #[test]
+    fn the_live_pose_read_through_an_older_warp_lands_where_the_robot_is() {
+        // Laps with loops closed: the keyframes move (41 corrections) after the fit made
+        // at scan 100, and the pose at the end, read through that fit, is taken back to the
+        // map of the fit first (the formula's own test is `pose_at_fit`'s, with a move
+        // large enough to tell; here the frames: mount, keyframes, pose).
+        let (mut halfway, mut scans) = (None, 0);
+        let (m, truth) = drive_laps(Method::Sketch, MapperConfig::default(), |m, _| {
+            scans += 1;
+            if scans == 100 {
+                halfway = m.drawing_registration();
+            }
+        });
+        let halfway = halfway.expect("a warp halfway");
+        let last = truth.last().unwrap();
+        let (on, holds) = m.pose_on_drawing_through(&halfway);
+        let off_px = (on.u_px - (10.0 + last.x / 0.05)).hypot(on.v_px - (130.0 - last.y / 0.05));
+        assert!(holds && off_px < 4.0, "{off_px:.1} px off");
+        // Read through the final fit, nothing has moved since: the pose as it is.
+        let fit = m.drawing_registration().unwrap();
+        assert_eq!(
+            m.pose_on_drawing_through(&fit),
+            fit.to_drawing(&m.pose().map)
+        );
     }
 }

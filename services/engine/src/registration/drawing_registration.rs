@@ -41,6 +41,11 @@ pub struct WarpProblem {
     pub keyframes: usize,
     /// The mapper's map revision when copied.
     pub map_revision: u64,
+    /// The keyframes' poses the walls were placed at (map frame, the mapper's own, in
+    /// keyframe order): the frame W is fitted in, kept so that a pose read through W after
+    /// later corrections moved the map can be taken back to it
+    /// (`Mapper::pose_on_drawing_through`).
+    pub anchors: Vec<Pose2>,
 }
 
 impl WarpProblem {
@@ -51,6 +56,7 @@ impl WarpProblem {
             fit,
             keyframes: self.keyframes,
             map_revision: self.map_revision,
+            anchors: self.anchors.clone(),
         })
     }
 }
@@ -64,6 +70,9 @@ pub struct DrawingRegistration {
     pub keyframes: usize,
     /// The mapper's map revision at the fit.
     pub map_revision: u64,
+    /// [`WarpProblem::anchors`] of the fit (empty for a registration read back from its
+    /// parameters: it is read in whatever frame the map is in then).
+    pub anchors: Vec<Pose2>,
 }
 
 impl DrawingRegistration {
@@ -88,6 +97,20 @@ impl DrawingRegistration {
     /// True where W is held by the map's walls ([`MIN_SUPPORT_POINTS`]).
     pub fn holds_at(&self, p: Point2) -> bool {
         self.support_at(p) >= MIN_SUPPORT_POINTS
+    }
+
+    /// A map pose `now` of the map whose keyframes lie at `keyframes` now, taken back to
+    /// the map W was fitted to. A loop closure after the fit moves the keyframes, and the
+    /// pose with them; read through the old W, the moved pose lands where the old map had
+    /// another place. Relative to the newest keyframe the fit knew, `K`, placed where `K`
+    /// was then: `p_fit = K_fit ⊕ (K_now⁻¹ ⊕ p_now)`. `now` unchanged when the fit knew no
+    /// keyframe ([`DrawingRegistration::anchors`] empty). O(1).
+    pub fn pose_at_fit(&self, keyframes: &[Pose2], now: &Pose2) -> Pose2 {
+        let k = self.anchors.len().min(keyframes.len());
+        match k.checked_sub(1) {
+            Some(i) => self.anchors[i].compose(&keyframes[i].inverse().compose(now)),
+            None => *now,
+        }
     }
 
     /// A map pose on the drawing, and whether W holds there.
@@ -152,7 +175,34 @@ mod tests {
             },
             keyframes: 3,
             map_revision: 0,
+            anchors: Vec::new(),
         }
+    }
+
+    #[test]
+    fn a_pose_after_a_correction_is_read_where_the_fitted_map_had_it() {
+        // Fitted with keyframes at (0, 0, 0) and (4, 0, 0); a closure since moved the second
+        // to (4, 1, 90°), and the robot 0.5 m ahead of it, at (4, 1.5, 90°).
+        let mut r = registration();
+        r.anchors = vec![Pose2::new(0.0, 0.0, 0.0), Pose2::new(4.0, 0.0, 0.0)];
+        let q = std::f64::consts::FRAC_PI_2;
+        let now = [
+            Pose2::new(0.0, 0.0, 0.0),
+            Pose2::new(4.0, 1.0, q),
+            Pose2::new(4.0, 2.0, q),
+        ];
+        // 0.5 m ahead of the fitted second keyframe: (4.5, 0, 0), pixel (145, 200).
+        let back = r.pose_at_fit(&now, &Pose2::new(4.0, 1.5, q));
+        assert!(back.position().distance(&Point2::new(4.5, 0.0)) < 1e-12);
+        assert!(back.heading_rad.abs() < 1e-12);
+        let (on, _) = r.to_drawing(&back);
+        assert!((on.u_px - 145.0).abs() < 1e-9 && (on.v_px - 200.0).abs() < 1e-9);
+        // A registration that knows no keyframe reads the pose as it is.
+        r.anchors.clear();
+        assert_eq!(
+            r.pose_at_fit(&now, &Pose2::new(4.0, 1.5, q)),
+            Pose2::new(4.0, 1.5, q)
+        );
     }
 
     #[test]
