@@ -4,6 +4,7 @@
 
 pub mod dataset_run;
 pub mod generated;
+pub mod live_warp;
 pub mod loop_audit;
 pub mod metrics;
 pub mod overlay;

@@ -124,9 +124,10 @@ pub struct RunResult {
     /// Share of those poses within 1 m-equivalent of the truth.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub warp_pose_within_1m: Option<f64>,
-    /// Real-process `sketch` runs on a scenario with `sketch-truth.toml`: median error of
-    /// each scan's pose on the drawing as the event stream first published it (through the
-    /// warp the session held then, refitted as the map grew), meters at the nominal scale.
+    /// `sketch` runs on a scenario with `sketch-truth.toml`: median error of each scan's
+    /// pose on the drawing as the session first published it, through the warp it held then
+    /// (through the processes: the event stream and the service's warp worker; in-process:
+    /// [`crate::live_warp::LiveWarp`]), meters at the nominal scale.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub live_sketch_pose_median_m: Option<f64>,
     /// Share of those poses within 1 m-equivalent of the truth.
@@ -250,6 +251,12 @@ pub fn run_in_process_as(
             result.warp_pose_median_m = Some(score.median_m);
             result.warp_pose_p95_m = Some(score.p95_m);
             result.warp_pose_within_1m = Some(score.within_1m);
+        }
+        if let Some(score) =
+            score_published_poses(&scenario.dir, &cfg.name, &run.truth, &run.live_sketch_poses)?
+        {
+            result.live_sketch_pose_median_m = Some(score.median_m);
+            result.live_sketch_pose_within_1m = Some(score.within_1m);
         }
     }
     Ok(result)

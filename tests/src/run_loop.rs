@@ -8,6 +8,7 @@
 //! dataset); [`RunFigures`] fills the figures every run reports, in-process or through the
 //! processes ([`crate::real_process`]).
 
+use crate::live_warp::LiveWarp;
 use crate::loop_audit;
 use crate::metrics::StampedPose;
 use crate::run::{ONLINE_TRAJECTORY_FILE, RunResult, sketch_prior};
@@ -45,6 +46,9 @@ pub struct InProcessRun {
     pub warp_poses: Vec<(f64, SketchPose)>,
     /// `sketch` runs: [`warp_held_share`] of the served trajectory on the drawing.
     pub warp_held: Option<f64>,
+    /// `sketch` runs: each scan's pose on the drawing as published then ([`LiveWarp`]),
+    /// stamp in seconds.
+    pub live_sketch_poses: Vec<(f64, SketchPose)>,
 }
 
 /// Maps `steps` (a stream of `scan_count` scans) with `method` (and, for `sketch`, the
@@ -78,6 +82,8 @@ pub fn map_in_process(
     let mut scan_ms: Vec<f64> = Vec::new();
     // Each scan's pose as the session publishes it then, before later closures move it.
     let mut live: Vec<TrajectoryPoint> = Vec::new();
+    let mut live_warp = (method == Method::Sketch).then(LiveWarp::default);
+    let mut live_sketch_poses = Vec::new();
     for step in steps {
         // The truth does not depend on the mapper: recorded before it runs, outside the
         // timed call.
@@ -98,6 +104,9 @@ pub fn map_in_process(
                 stamp_ns: scan.header.stamp_ns,
                 pose: now.map,
             });
+            if let Some(on) = live_warp.as_mut().and_then(|w| w.after_scan(&mapper)) {
+                live_sketch_poses.push((scan.header.stamp_ns as f64 * 1e-9, on));
+            }
             progress(truth.len() as u64, total);
             if truth.len() as u64 >= total {
                 break;
@@ -153,6 +162,7 @@ pub fn map_in_process(
         sketch_poses,
         warp_poses,
         warp_held,
+        live_sketch_poses,
     })
 }
 

@@ -81,6 +81,14 @@ fn in_process_and_real_processes_build_the_same_map() -> anyhow::Result<()> {
     let (la, lb) = (a.online_ate_rmse_m, b.online_ate_rmse_m);
     assert!(la.is_some() && lb.is_some(), "{la:?} {lb:?}");
     assert!((la.unwrap() - lb.unwrap()).abs() < 0.05, "{la:?} {lb:?}");
+    // And the live pose on the drawing, through the warp each mode held at the scan (the
+    // service's worker fits when it gets to it, the in-process loop at the scan the rule
+    // names): both within a meter-equivalent of the truth at the median on this drawing.
+    let (wa, wb) = (a.live_sketch_pose_median_m, b.live_sketch_pose_median_m);
+    assert!(
+        wa.is_some_and(|m| m < 1.0) && wb.is_some_and(|m| m < 1.0),
+        "{wa:?} {wb:?}"
+    );
     // Generous bounds on the first 20 m of the route (completeness counts the walls the
     // sensor saw in those scans only).
     assert!(a.map_error_m <= 0.25, "map error {}", a.map_error_m);

@@ -585,8 +585,10 @@ fn print_table(results: &[RunResult]) {
              W med, W≤1m: the same for the final trajectory carried onto the drawing through the \
              warp fitted to the final map (through the processes, by the session's POST …/transform); \
              W held: % of the served trajectory on the drawing where mapped walls hold W; \
-             live drw, ldrw≤1m (through the processes): the same as drw for each scan's pose on \
-             the drawing as the event stream first published it, through the warp held then"
+             live drw, ldrw≤1m: the same as drw for each scan's pose on the drawing as the \
+             session first published it, through the warp it held then (through the processes: \
+             the event stream, the service's warp worker; in-process: W refitted at the scan the \
+             map grew by the worker's 10 keyframes)"
         );
     }
     if results.iter().any(|r| r.scan_ms_mean.is_some()) {
