@@ -13,8 +13,8 @@ use crate::processes::{ChildGuard, binary, unique_prefix};
 use crate::run::ONLINE_TRAJECTORY_FILE;
 use crate::run::{RunResult, Truth, read_trajectory_csv, score_artifacts, seen_wall_pixels};
 use crate::run_loop::{
-    RunFigures, SKETCH_IN_MAP_FILE, SKETCH_OVERLAY_FILE, served_drawing_poses, warp_held_share,
-    write_warp_trajectory,
+    LIVE_SKETCH_TRAJECTORY_FILE, RunFigures, SKETCH_IN_MAP_FILE, SKETCH_OVERLAY_FILE,
+    WARP_TRAJECTORY_FILE, served_drawing_poses, warp_held_share, write_drawing_trajectory,
 };
 use crate::service_histogram::{SCAN_PROCESSING, ServiceHistogram};
 use crate::service_process::{ServiceOptions, ServiceProcess};
@@ -315,6 +315,7 @@ pub fn map_through_processes(
     let (mut published_sketch_poses, mut warp_poses) = (Vec::new(), Vec::new());
     let mut warp_held = None;
     if method == Method::Sketch {
+        write_drawing_trajectory(out_dir, LIVE_SKETCH_TRAJECTORY_FILE, &live_sketch_poses)?;
         let on_drawing = runtime.block_on(client.sketch_trajectory(&session.id))?;
         std::fs::write(out_dir.join("sketch-trajectory.csv"), on_drawing.to_csv())?;
         published_sketch_poses = served_drawing_poses(&on_drawing);
@@ -416,7 +417,7 @@ fn fetch_registration(
         }
     }
     let poses = poses_on_drawing(&trajectory.points, &to_drawing);
-    write_warp_trajectory(out_dir, &poses)?;
+    write_drawing_trajectory(out_dir, WARP_TRAJECTORY_FILE, &poses)?;
     std::fs::write(
         out_dir.join(SKETCH_OVERLAY_FILE),
         runtime.block_on(client.sketch_overlay_on_map_png(session_id))?,

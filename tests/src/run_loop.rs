@@ -127,6 +127,7 @@ pub fn map_in_process(
     let mut warp_poses = Vec::new();
     let mut warp_held = None;
     if method == Method::Sketch {
+        write_drawing_trajectory(out_dir, LIVE_SKETCH_TRAJECTORY_FILE, &live_sketch_poses)?;
         // The whole trajectory on the drawing, through the service's own codec, so the file
         // is what `?frame=sketch&format=csv` serves once the session stopped: the final
         // map's warp where its walls hold it, MCL's poses elsewhere.
@@ -142,7 +143,7 @@ pub fn map_in_process(
                 .iter()
                 .map(|t| (t.stamp_ns as f64 * 1e-9, warp.pose_on_drawing(&t.pose)))
                 .collect();
-            write_warp_trajectory(out_dir, &warp_poses)?;
+            write_drawing_trajectory(out_dir, WARP_TRAJECTORY_FILE, &warp_poses)?;
             if let Some(drawing) = mapper.drawing() {
                 // The service's pictures, by the same renderers (the grid refreshed above).
                 let route: Vec<_> = mapper.trajectory().iter().map(|t| t.pose).collect();
@@ -188,9 +189,18 @@ pub const SKETCH_OVERLAY_FILE: &str = "sketch-overlay.png";
 /// `sketch-in-map.png`), written by `sketch` runs.
 pub const SKETCH_IN_MAP_FILE: &str = "sketch-in-map.png";
 
-/// Writes poses on the drawing (stamp in seconds) as [`WARP_TRAJECTORY_FILE`], in the format
-/// of `sketch-trajectory.csv` by the same writer.
-pub fn write_warp_trajectory(out_dir: &Path, poses: &[(f64, SketchPose)]) -> Result<()> {
+/// Each scan's pose on the drawing as the session published it then (`live drw`), written
+/// by `sketch` runs in both modes.
+pub const LIVE_SKETCH_TRAJECTORY_FILE: &str = "live-sketch-trajectory.csv";
+
+/// Writes poses on the drawing (stamp in seconds) as `file` in `out_dir`
+/// ([`WARP_TRAJECTORY_FILE`], [`LIVE_SKETCH_TRAJECTORY_FILE`]), in the format of
+/// `sketch-trajectory.csv` by the same writer.
+pub fn write_drawing_trajectory(
+    out_dir: &Path,
+    file: &str,
+    poses: &[(f64, SketchPose)],
+) -> Result<()> {
     let rows: Vec<DrawingRow> = poses
         .iter()
         .map(|(t_s, p)| DrawingRow {
@@ -201,10 +211,7 @@ pub fn write_warp_trajectory(out_dir: &Path, poses: &[(f64, SketchPose)]) -> Res
             meters_per_pixel: p.meters_per_pixel,
         })
         .collect();
-    std::fs::write(
-        out_dir.join(WARP_TRAJECTORY_FILE),
-        sketch_trajectory_csv::write(&rows),
-    )?;
+    std::fs::write(out_dir.join(file), sketch_trajectory_csv::write(&rows))?;
     Ok(())
 }
 

@@ -57,6 +57,12 @@ fn both_modes_agree(
             "{}",
             dir.display()
         );
+        assert_eq!(
+            dir.join("live-sketch-trajectory.csv").is_file(),
+            method == Method::Sketch,
+            "{}",
+            dir.display()
+        );
     }
     if method == Method::Sketch {
         // The service's trajectory on the drawing is the in-process mapper's, byte for byte.

@@ -41,17 +41,9 @@ impl WarpCache {
     /// The last fit while the map has neither moved nor grown by [`REFIT_KEYFRAMES`] since,
     /// else a new one; `None` while nothing can be fitted (or without a drawing).
     pub fn fresh(&self, mapper: &Mutex<Mapper>) -> Option<Arc<DrawingRegistration>> {
-        let problem = {
-            let m = lock(mapper);
-            if let Some(r) = self.current().filter(|r| {
-                r.map_revision == m.map_revision()
-                    && m.keyframe_count() < r.keyframes + REFIT_KEYFRAMES
-            }) {
-                return Some(r);
-            }
-            m.warp_problem()?
-        };
-        self.store(timed_solve(&problem))
+        self.refit_unless(mapper, |r, m| {
+            r.map_revision == m.map_revision() && !has_grown(r, m)
+        })
     }
 
     /// The worker's refit: a new fit once the map has grown by [`REFIT_KEYFRAMES`] since
@@ -61,12 +53,19 @@ impl WarpCache {
     /// a busy floor) would keep a core busy for nothing. HTTP requests that read W over the
     /// moved map ask [`WarpCache::fresh`].
     pub fn grown(&self, mapper: &Mutex<Mapper>) -> Option<Arc<DrawingRegistration>> {
+        self.refit_unless(mapper, |r, m| !has_grown(r, m))
+    }
+
+    /// The last fit where `holds(fit, mapper)`, else a new one (the walls copied under the
+    /// mapper's lock, the fit outside it).
+    fn refit_unless(
+        &self,
+        mapper: &Mutex<Mapper>,
+        holds: impl Fn(&DrawingRegistration, &Mapper) -> bool,
+    ) -> Option<Arc<DrawingRegistration>> {
         let problem = {
             let m = lock(mapper);
-            if let Some(r) = self
-                .current()
-                .filter(|r| m.keyframe_count() < r.keyframes + REFIT_KEYFRAMES)
-            {
+            if let Some(r) = self.current().filter(|r| holds(r, &m)) {
                 return Some(r);
             }
             m.warp_problem()?
@@ -86,6 +85,11 @@ impl WarpCache {
         *lock(&self.slot) = Some(fitted.clone());
         Some(fitted)
     }
+}
+
+/// True once the map has [`REFIT_KEYFRAMES`] keyframes more than `r` was fitted to.
+fn has_grown(r: &DrawingRegistration, m: &Mapper) -> bool {
+    m.keyframe_count() >= r.keyframes + REFIT_KEYFRAMES
 }
 
 /// [`WarpProblem::solve`], its time in the debug log.
