@@ -17,7 +17,7 @@
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use sketchslam_engine::registration::{
-    ControlGrid, FitConfig, Similarity, Warp, fit_warp_from, render_map_on_drawing,
+    ControlGrid, FitConfig, Similarity, Warp, WarpProblem, fit_warp_from, render_map_on_drawing,
 };
 use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::dataset::Dataset;
@@ -25,7 +25,9 @@ use sketchslam_simulator::scenario::Scenario;
 use sketchslam_tests::metrics::StampedPose;
 use sketchslam_tests::run::read_trajectory_csv;
 use sketchslam_tests::run::sketch_prior;
-use sketchslam_tests::sketch_truth::{DrawingTruth, pair_by_stamp, score_sketch_poses};
+use sketchslam_tests::sketch_truth::{
+    DrawingTruth, SketchPoseScore, pair_by_stamp, score_sketch_poses,
+};
 use sketchslam_tests::warp_problem_file::{WARP_PROBLEM_FILE, WarpProblemFile};
 use sketchslam_types::Point2;
 use std::path::{Path, PathBuf};
@@ -196,8 +198,9 @@ fn find_problems(dir: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
 fn score(path: &Path, config: FitConfig, render: bool, truth_start: bool) -> Result<Option<Row>> {
     let run_dir = path.parent().context("a file has a folder")?;
     let file = WarpProblemFile::read(path)?;
+    let problem = file.problem(config);
     let started = Instant::now();
-    let Some(registration) = file.problem(config).solve() else {
+    let Some(registration) = problem.solve() else {
         return Ok(None);
     };
     let fit_s = started.elapsed().as_secs_f64();
@@ -220,7 +223,7 @@ fn score(path: &Path, config: FitConfig, render: bool, truth_start: bool) -> Res
             })?;
         let prior = sketch_prior(cfg)?;
         let route: Vec<_> = trajectory.iter().map(|t| t.pose).collect();
-        render_map_on_drawing(&prior.sketch, warp, &file.problem(config).walls, &route)
+        render_map_on_drawing(&prior.sketch, warp, &problem.walls, &route)
             .save(run_dir.join("bench-warp-overlay.png"))?;
     }
     let held = trajectory
@@ -248,21 +251,15 @@ fn score(path: &Path, config: FitConfig, render: bool, truth_start: bool) -> Res
     };
     // Scored where the scenario says how the drawing was made (real logs' drawings: not).
     if let Some(drawing) = DrawingTruth::load(&file.scenario_dir, &file.sketch)? {
-        let truth_all: Vec<StampedPose> = read_trajectory_csv(&run_dir.join("truth.csv"))?;
-        let truth = &truth_all;
-        let published: Vec<_> = trajectory
-            .iter()
-            .map(|t| (t.t_s, warp.pose_on_drawing(&t.pose)))
-            .collect();
-        let (truth, estimate) = pair_by_stamp(truth, &published);
-        if let Some(s) = score_sketch_poses(&truth, &estimate, &drawing) {
+        let truth: Vec<StampedPose> = read_trajectory_csv(&run_dir.join("truth.csv"))?;
+        if let Some(s) = score_through(warp, &trajectory, &truth, &drawing) {
             row.median_m = Some(s.median_m);
             row.p95_m = Some(s.p95_m);
             row.within_1m = Some(s.within_1m);
             row.heading_median_deg = Some(s.heading_median_deg);
         }
         if truth_start {
-            row.truth = truth_check(&file, config, warp, &trajectory, &truth_all, &drawing);
+            row.truth = truth_check(&problem, config, warp, &trajectory, &truth, &drawing);
         }
     }
     Ok(Some(row))
@@ -305,16 +302,31 @@ fn apply_set(config: &mut FitConfig, set: &str) -> Result<()> {
     Ok(())
 }
 
+/// The run's `trajectory` (map poses) carried onto the drawing through `warp`, scored against
+/// `truth` carried there by `drawing`; `None` without a pose of the same stamp.
+fn score_through(
+    warp: &Warp,
+    trajectory: &[StampedPose],
+    truth: &[StampedPose],
+    drawing: &DrawingTruth,
+) -> Option<SketchPoseScore> {
+    let published: Vec<_> = trajectory
+        .iter()
+        .map(|t| (t.t_s, warp.pose_on_drawing(&t.pose)))
+        .collect();
+    let (truth, estimate) = pair_by_stamp(truth, &published);
+    score_sketch_poses(&truth, &estimate, drawing)
+}
+
 /// `--truth-start`: `E` at the fit found, at a warp through the truth, and refitted from it.
 fn truth_check(
-    file: &WarpProblemFile,
+    problem: &WarpProblem,
     config: FitConfig,
     found: &Warp,
     trajectory: &[StampedPose],
     truth: &[StampedPose],
     drawing: &DrawingTruth,
 ) -> Option<TruthCheck> {
-    let problem = file.problem(config);
     // Each trajectory pose with its true place on the drawing (drawing frame: u, −v).
     let carried: Vec<(f64, SketchPose)> = truth
         .iter()
@@ -363,14 +375,7 @@ fn truth_check(
         )
         .map(|f| f.1)
     };
-    let median = |w: &Warp| {
-        let published: Vec<_> = trajectory
-            .iter()
-            .map(|t| (t.t_s, w.pose_on_drawing(&t.pose)))
-            .collect();
-        let (t, e) = pair_by_stamp(truth, &published);
-        score_sketch_poses(&t, &e, drawing).map(|s| s.median_m)
-    };
+    let median = |w: &Warp| score_through(w, trajectory, truth, drawing).map(|s| s.median_m);
     let (refit, energy_refit) = fit_warp_from(
         &problem.walls,
         &problem.lines,

@@ -241,19 +241,21 @@ pub fn fit_warp(
     let levels = config.levels.max(1);
     let mut firsts: Vec<(WarpFit, f64)> = starts
         .into_iter()
-        .map(|start| problem.fit_from(start, &prior, config, Stages::first()))
+        .map(|start| problem.fit_from(start, Stages::first()))
         .collect();
     firsts.sort_by(|a, b| a.1.total_cmp(&b.1));
     firsts.truncate(config.finished_starts.max(1));
+    // A fit after the first stages, on through the finer grids.
+    let finish = |(fit, energy): (WarpFit, f64)| {
+        if levels > 1 {
+            problem.fit_from(fit.warp, Stages::rest(levels))
+        } else {
+            (fit, energy)
+        }
+    };
     let best = firsts
         .into_iter()
-        .map(|(fit, energy)| {
-            if levels > 1 {
-                problem.fit_from(fit.warp, &prior, config, Stages::rest(levels))
-            } else {
-                (fit, energy)
-            }
-        })
+        .map(finish)
         .min_by(|a, b| a.1.total_cmp(&b.1))?;
     // Regions laid a room over: moved beyond the gate and fitted again (`region_search`).
     let Some(field) = field else {
@@ -271,21 +273,17 @@ pub fn fit_warp(
             levels: 0..1,
         };
         let here = problem
-            .fit_from(best.0.warp.resampled(grid), &prior, config, coarse.clone())
+            .fit_from(best.0.warp.resampled(grid), coarse.clone())
             .1;
         let Some(moved) = region_starts(&problem.points, &field, &best.0.warp, grid, config, s0)
             .into_iter()
-            .map(|start| problem.fit_from(start, &prior, config, coarse.clone()))
+            .map(|start| problem.fit_from(start, coarse.clone()))
             .filter(|f| f.1 < here)
             .min_by(|a, b| a.1.total_cmp(&b.1))
         else {
             break;
         };
-        let better = if levels > 1 {
-            problem.fit_from(moved.0.warp, &prior, config, Stages::rest(levels))
-        } else {
-            moved
-        };
+        let better = finish(moved);
         if better.1 >= best.1 {
             break;
         }
@@ -311,8 +309,6 @@ pub fn fit_warp_from(
     let problem = Prepared::new(points, lines, &prior, config)?;
     Some(problem.fit_from(
         start,
-        &prior,
-        config,
         Stages {
             similarity: true,
             levels: 0..config.levels.max(1),
@@ -321,8 +317,10 @@ pub fn fit_warp_from(
 }
 
 /// The wall points with their normals, the drawn segments (bucketed for the widest gate the
-/// fit uses) and the walls' extent.
+/// fit uses), the walls' extent, and the prior and settings every stage fits with.
 struct Prepared {
+    prior: Similarity,
+    config: FitConfig,
     points: Vec<WallPoint>,
     segments: Vec<Segment>,
     index: SegmentGrid,
@@ -369,6 +367,8 @@ impl Prepared {
         let (lo, hi) = bounds(points.iter().map(|w| w.p));
         let index = SegmentGrid::new(&segments, widest_gate_m(config) * s0)?;
         Some(Self {
+            prior: *prior,
+            config: *config,
             points,
             segments,
             index,
@@ -380,13 +380,7 @@ impl Prepared {
     /// The fit's `stages` (similarity, then the control grids coarse to fine) from
     /// `start`; a run that starts past the similarity starts at its first level's gate (a
     /// gate never widens again).
-    fn fit_from(
-        &self,
-        start: Warp,
-        prior: &Similarity,
-        config: &FitConfig,
-        stages: Stages,
-    ) -> (WarpFit, f64) {
+    fn fit_from(&self, start: Warp, stages: Stages) -> (WarpFit, f64) {
         let (points, segments, index, lo, hi) = (
             self.points.as_slice(),
             self.segments.as_slice(),
@@ -394,8 +388,8 @@ impl Prepared {
             self.lo,
             self.hi,
         );
+        let (prior, config) = (self.prior, &self.config);
         let s0 = prior.scale_px_per_m();
-        let prior = *prior;
         let px = |m: f64| m * s0;
         let cos_tol = config.direction_tolerance_rad.clamp(0.0, FRAC_PI_2).cos();
         // Coarse to fine: spacings 2^(L−1)·s … s. A level's gate is what its cells cannot bend:

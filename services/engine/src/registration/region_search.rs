@@ -59,9 +59,10 @@ pub(super) fn region_starts(
     let inv_tau2 = 1.0 / (tau_px * tau_px);
     let extent_m = grid.spacing_m * ((grid.columns - 1).max(grid.rows - 1)) as f64;
     let reach_m = 0.5 * config.proportion_error * extent_m;
-    let step_m = 0.5 * config.gate_m.max(1e-3);
-    let n_steps = (reach_m / step_m).floor() as i64;
-    if n_steps < 1 {
+    let gate_m = config.gate_m.max(1e-3);
+    // The reach in gates; nothing to search where it is short of half a gate (the finer step).
+    let reach_gates = reach_m / gate_m;
+    if reach_gates < 0.5 {
         return Vec::new();
     }
     // Per node, its points: warped position, direction (turned by W), weight.
@@ -91,34 +92,30 @@ pub(super) fn region_starts(
             continue;
         }
         let here = gain_at(m, 0.0, 0.0);
+        // The best of `best` and the displacements `centre + (i, j) · step` for |i|, |j| ≤ n.
+        let scan = |best: (f64, Point2), centre: Point2, step_px: f64, n: i64| {
+            let mut best = best;
+            for iy in -n..=n {
+                for ix in -n..=n {
+                    let d = Point2::new(
+                        centre.x + ix as f64 * step_px,
+                        centre.y + iy as f64 * step_px,
+                    );
+                    let g = gain_at(m, d.x, d.y);
+                    if g > best.0 {
+                        best = (g, d);
+                    }
+                }
+            }
+            best
+        };
         // A grid at the gate's step (the kernel is a gate wide each way, so a peak lies
         // within half a step of a grid point and scores three quarters of its height
         // there), then its best point's neighbours at half the step.
-        let step_px = 2.0 * step_m * s0;
-        let mut best = (here, Point2::new(0.0, 0.0));
-        let coarse = n_steps / 2;
-        for iy in -coarse..=coarse {
-            for ix in -coarse..=coarse {
-                let d = Point2::new(ix as f64 * step_px, iy as f64 * step_px);
-                let g = gain_at(m, d.x, d.y);
-                if g > best.0 {
-                    best = (g, d);
-                }
-            }
-        }
-        let centre = best.1;
-        for iy in -1..=1 {
-            for ix in -1..=1 {
-                let d = Point2::new(
-                    centre.x + 0.5 * ix as f64 * step_px,
-                    centre.y + 0.5 * iy as f64 * step_px,
-                );
-                let g = gain_at(m, d.x, d.y);
-                if g > best.0 {
-                    best = (g, d);
-                }
-            }
-        }
+        let step_px = gate_m * s0;
+        let origin = Point2::new(0.0, 0.0);
+        let coarse = scan((here, origin), origin, step_px, reach_gates.floor() as i64);
+        let best = scan(coarse, coarse.1, 0.5 * step_px, 1);
         if best.0 - here > MIN_GAIN_POINTS {
             moves.push((best.0 - here, k, best.1));
         }

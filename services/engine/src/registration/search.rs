@@ -84,6 +84,16 @@ fn normal_angle(n: Point2) -> f64 {
     n.y.atan2(n.x).rem_euclid(PI)
 }
 
+/// `R(α) diag(f_a, f_b) R(−α) q`: `q` scaled by `f_a` along the axis at `α` (given as its
+/// sine and cosine) and by `f_b` across it. The search's stretch along the walls' axes.
+fn along_axes(q: Point2, (sin_a, cos_a): (f64, f64), f_a: f64, f_b: f64) -> Point2 {
+    let (qa, qb) = (
+        f_a * (cos_a * q.x + sin_a * q.y),
+        f_b * (-sin_a * q.x + cos_a * q.y),
+    );
+    Point2::new(cos_a * qa - sin_a * qb, sin_a * qa + cos_a * qb)
+}
+
 impl DirectionField {
     /// Rasterizes `segments` (drawing frame, pixels); `tolerance_rad` the direction
     /// tolerance, `cell_px` the cell, `reach_px` the truncation. `None` when empty.
@@ -228,10 +238,8 @@ impl Candidate {
             );
             // s R(θ) R(α) diag(e^v − 1, e^−v − 1) R(−α) q: the stretch along the walls'
             // axes, turned with the similarity.
-            let (qa, qb) = (cos_a * q.x + sin_a * q.y, -sin_a * q.x + cos_a * q.y);
-            let (da, db) = (s * ex * qa, s * ey * qb);
-            let (dx, dy) = (cos_a * da - sin_a * db, sin_a * da + cos_a * db);
-            *o = Point2::new(cos * dx - sin * dy, sin * dx + cos * dy);
+            let d = along_axes(q, (sin_a, cos_a), s * ex, s * ey);
+            *o = Point2::new(cos * d.x - sin * d.y, sin * d.x + cos * d.y);
         }
         warp
     }
@@ -294,12 +302,8 @@ impl Scorer<'_> {
             .map(|(p, n)| {
                 let bin =
                     (((n + theta).rem_euclid(PI) / field.bin_rad) as usize).min(field.bins - 1);
-                // Stretched along the walls' axes (R(α) diag(sx, sy) R(−α) p), then turned.
-                let (pa, pb) = (
-                    sx * (cos_a * p.x + sin_a * p.y),
-                    sy * (-sin_a * p.x + cos_a * p.y),
-                );
-                let q = Point2::new(cos_a * pa - sin_a * pb, sin_a * pa + cos_a * pb);
+                // Stretched along the walls' axes, then turned.
+                let q = along_axes(*p, (sin_a, cos_a), sx, sy);
                 (
                     (cos * q.x - sin * q.y + self.prior.t.x - field.origin_px.x) * inv_cell,
                     (sin * q.x + cos * q.y + self.prior.t.y - field.origin_px.y) * inv_cell,
