@@ -14,6 +14,7 @@
 //! Both modes exist: [`run_dataset_in_process`] drives the replay and the engine in this
 //! process, [`run_dataset_real_process`] launches `slam-service` and `simulator replay`.
 
+use crate::live_warp::write_live_fits;
 use crate::metrics::{self, StampedPose};
 use crate::real_process::{StreamSource, map_through_processes, sketch_pose_of};
 use crate::relations::{Relation, RelationScore, score_relations};
@@ -113,6 +114,9 @@ pub fn run_dataset_in_process(
         && let Some(problem) = run.mapper.warp_problem()
     {
         WarpProblemFile::new(&problem, &dataset.dir, &cfg.name).write(out_dir)?;
+    }
+    if let Some(cfg) = sketch {
+        write_live_fits(out_dir, &run.live_fits, &run.truth, &dataset.dir, &cfg.name)?;
     }
     let relations = dataset_relations(dataset)?;
     let reference = dataset.has_reference_poses().then_some(&run.truth[..]);

@@ -8,32 +8,104 @@
 //! also as old as a fit takes), and the pose is read through it as the service reads it
 //! (`Mapper::pose_on_drawing_through`). Until the first fit the published pose is MCL's,
 //! as the service's.
+//!
+//! Asked to, it keeps each live fit's problem with the trajectory of its moment
+//! ([`LiveFit`]), so that `bench-warp` can fit the partial maps again with other settings
+//! and score them (`evaluate --keep-live-warps`).
 
-use sketchslam_engine::mapper::Mapper;
-use sketchslam_engine::registration::DrawingRegistration;
+use crate::metrics::StampedPose;
+use crate::warp_problem_file::WarpProblemFile;
+use anyhow::Result;
+use sketchslam_engine::mapper::{Mapper, TrajectoryPoint, trajectory_csv};
+use sketchslam_engine::registration::{DrawingRegistration, WarpProblem};
 use sketchslam_engine::sketch::SketchPose;
 use sketchslam_slam::warp_cache::REFIT_KEYFRAMES;
+use std::path::Path;
 
 /// The warp a live session holds, refitted by the service's rule.
 #[derive(Default)]
 pub struct LiveWarp {
     held: Option<DrawingRegistration>,
+    /// `Some` when the live fits' problems are kept.
+    kept: Option<Vec<LiveFit>>,
+}
+
+/// A live fit's problem, kept with the map's trajectory at its scan.
+pub struct LiveFit {
+    /// Scans mapped when it was fitted.
+    pub scans: usize,
+    /// What was fitted.
+    pub problem: WarpProblem,
+    /// The mapper's trajectory then (map frame, one pose per scan).
+    pub trajectory: Vec<TrajectoryPoint>,
 }
 
 impl LiveWarp {
-    /// After a scan: refits W when due, then the scan's pose on the drawing as published,
-    /// through W, or MCL's pose before the first fit (`None` without either).
-    pub fn after_scan(&mut self, mapper: &Mapper) -> Option<SketchPose> {
+    /// A live warp that keeps every fit's problem ([`LiveWarp::kept`]).
+    pub fn keeping_fits() -> Self {
+        Self {
+            held: None,
+            kept: Some(Vec::new()),
+        }
+    }
+
+    /// After the `scans`-th scan: refits W when due, then the scan's pose on the drawing as
+    /// published, through W, or MCL's pose before the first fit (`None` without either).
+    pub fn after_scan(&mut self, mapper: &Mapper, scans: usize) -> Option<SketchPose> {
         let due = self
             .held
             .as_ref()
             .is_none_or(|r| mapper.keyframe_count() >= r.keyframes + REFIT_KEYFRAMES);
-        if due && let Some(fitted) = mapper.warp_problem().and_then(|p| p.solve()) {
+        if due
+            && let Some(problem) = mapper.warp_problem()
+            && let Some(fitted) = problem.solve()
+        {
             self.held = Some(fitted);
+            if let Some(kept) = self.kept.as_mut() {
+                kept.push(LiveFit {
+                    scans,
+                    problem,
+                    trajectory: mapper.trajectory().into_owned(),
+                });
+            }
         }
         match &self.held {
             Some(r) => Some(mapper.pose_on_drawing_through(r).0),
             None => mapper.pose().sketch,
         }
     }
+
+    /// The live fits kept, in order (empty unless made by [`LiveWarp::keeping_fits`]).
+    pub fn kept(self) -> Vec<LiveFit> {
+        self.kept.unwrap_or_default()
+    }
+}
+
+/// Where [`write_live_fits`] puts the live fits in a run's folder.
+pub const LIVE_WARPS_DIR: &str = "live-warps";
+
+/// Writes each live fit as `LIVE_WARPS_DIR/scan-NNNNNN/` in `out_dir`: its
+/// `warp-problem.json` (mapped in `scenario_dir` with the drawing `sketch`), the
+/// `trajectory.csv` of its moment and the `truth.csv` of the scans mapped then, which is
+/// what `bench-warp` reads.
+pub fn write_live_fits(
+    out_dir: &Path,
+    fits: &[LiveFit],
+    truth: &[StampedPose],
+    scenario_dir: &Path,
+    sketch: &str,
+) -> Result<()> {
+    for fit in fits {
+        let dir = out_dir
+            .join(LIVE_WARPS_DIR)
+            .join(format!("scan-{:06}", fit.scans));
+        std::fs::create_dir_all(&dir)?;
+        WarpProblemFile::new(&fit.problem, scenario_dir, sketch).write(&dir)?;
+        std::fs::write(dir.join("trajectory.csv"), trajectory_csv(&fit.trajectory))?;
+        sketchslam_simulator::truth::write_truth_csv(
+            &dir.join("truth.csv"),
+            &truth[..fit.scans.min(truth.len())],
+        )?;
+    }
+    Ok(())
 }

@@ -5,6 +5,7 @@
 //! the `map.pgm`/`map.yaml`/`trajectory.csv` files, so both modes are comparable byte for
 //! byte.
 
+use crate::live_warp::write_live_fits;
 use crate::metrics::{self, StampedPose, WallGrid};
 use crate::overlay;
 use crate::run_loop::map_in_process;
@@ -223,6 +224,15 @@ pub fn run_in_process_as(
         && let Some(problem) = run.mapper.warp_problem()
     {
         WarpProblemFile::new(&problem, &scenario.dir, &cfg.name).write(out_dir)?;
+    }
+    if let Some(cfg) = sketch {
+        write_live_fits(
+            out_dir,
+            &run.live_fits,
+            &run.truth,
+            &scenario.dir,
+            &cfg.name,
+        )?;
     }
     let walls = WallGrid::from_image(
         &image::open(&scenario.world.image)?.to_luma8(),

@@ -8,7 +8,7 @@
 //! dataset); [`RunFigures`] fills the figures every run reports, in-process or through the
 //! processes ([`crate::real_process`]).
 
-use crate::live_warp::LiveWarp;
+use crate::live_warp::{LiveFit, LiveWarp};
 use crate::loop_audit;
 use crate::metrics::StampedPose;
 use crate::run::{ONLINE_TRAJECTORY_FILE, RunResult, sketch_prior};
@@ -49,6 +49,8 @@ pub struct InProcessRun {
     /// `sketch` runs: each scan's pose on the drawing as published then ([`LiveWarp`]),
     /// stamp in seconds.
     pub live_sketch_poses: Vec<(f64, SketchPose)>,
+    /// `sketch` runs with `RunMethod::keep_live_warps`: every live fit ([`LiveWarp`]).
+    pub live_fits: Vec<LiveFit>,
 }
 
 /// Maps `steps` (a stream of `scan_count` scans) with `method` (and, for `sketch`, the
@@ -82,7 +84,13 @@ pub fn map_in_process(
     let mut scan_ms: Vec<f64> = Vec::new();
     // Each scan's pose as the session publishes it then, before later closures move it.
     let mut live: Vec<TrajectoryPoint> = Vec::new();
-    let mut live_warp = (method == Method::Sketch).then(LiveWarp::default);
+    let mut live_warp = (method == Method::Sketch).then(|| {
+        if run_method.keep_live_warps {
+            LiveWarp::keeping_fits()
+        } else {
+            LiveWarp::default()
+        }
+    });
     let mut live_sketch_poses = Vec::new();
     for step in steps {
         // The truth does not depend on the mapper: recorded before it runs, outside the
@@ -104,7 +112,10 @@ pub fn map_in_process(
                 stamp_ns: scan.header.stamp_ns,
                 pose: now.map,
             });
-            if let Some(on) = live_warp.as_mut().and_then(|w| w.after_scan(&mapper)) {
+            if let Some(on) = live_warp
+                .as_mut()
+                .and_then(|w| w.after_scan(&mapper, truth.len()))
+            {
                 live_sketch_poses.push((scan.header.stamp_ns as f64 * 1e-9, on));
             }
             progress(truth.len() as u64, total);
@@ -164,6 +175,7 @@ pub fn map_in_process(
         warp_poses,
         warp_held,
         live_sketch_poses,
+        live_fits: live_warp.map(LiveWarp::kept).unwrap_or_default(),
     })
 }
 

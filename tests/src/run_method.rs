@@ -23,6 +23,9 @@ pub struct RunMethod {
     /// The map frame turned from the robot's start heading, radians
     /// (`MapperConfig::frame_turn_rad`; methods without a drawing only). Zero by default.
     pub frame_turn_rad: f64,
+    /// `sketch` runs in-process: keep each live fit of W with the map of its moment
+    /// (`crate::live_warp::write_live_fits`), for `bench-warp`. False by default.
+    pub keep_live_warps: bool,
 }
 
 impl From<Method> for RunMethod {
@@ -32,6 +35,7 @@ impl From<Method> for RunMethod {
             loop_closure: true,
             lidar_mount: Pose2::IDENTITY,
             frame_turn_rad: 0.0,
+            keep_live_warps: false,
         }
     }
 }
@@ -78,6 +82,7 @@ impl FromStr for RunMethod {
             loop_closure,
             lidar_mount: Pose2::IDENTITY,
             frame_turn_rad: 0.0,
+            keep_live_warps: false,
         })
     }
 }

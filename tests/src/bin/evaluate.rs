@@ -21,6 +21,9 @@
 //! closing loops made the map worse than leaving them open (with `graph-open` in the
 //! methods), and the worst worlds' folders kept for a look.
 //!
+//! `--keep-live-warps` (in-process): each `sketch` run keeps the problem of every live fit of
+//! the warp in `RUN/live-warps/scan-N/`, for `bench-warp`.
+//!
 //! `--frame-turn-deg D` (in-process): the map frame of the methods without a drawing turned
 //! `D` degrees from the robot's start heading, to see how much a result owes to the map's
 //! axes lying along the walls.
@@ -101,6 +104,11 @@ struct Args {
     /// angle to the walls. The scores are taken after alignment, so they compare.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     frame_turn_deg: f64,
+    /// `sketch` runs (in-process only): keep every live fit of the warp, the map of its
+    /// moment with its trajectory and truth, in the run's `live-warps/scan-N/` folders, for
+    /// `bench-warp` to fit the partial maps again.
+    #[arg(long)]
+    keep_live_warps: bool,
 }
 
 /// One run of the plan.
@@ -120,6 +128,14 @@ fn main() -> Result<()> {
         }
         for m in &mut methods {
             m.frame_turn_rad = args.frame_turn_deg.to_radians();
+        }
+    }
+    if args.keep_live_warps {
+        if !in_process {
+            bail!("--keep-live-warps: in-process only (add --in-process)");
+        }
+        for m in &mut methods {
+            m.keep_live_warps = true;
         }
     }
     if let Some(open) = methods.iter().find(|m| !m.loop_closure && !in_process) {
