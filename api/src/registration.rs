@@ -57,6 +57,10 @@ pub struct RegistrationInfo {
     pub inliers: u64,
     /// Their RMS distance from the line, drawing pixels.
     pub rms_px: f64,
+    /// Steps of the robot's route (keyframe to keyframe) that W carries through a drawn
+    /// wall, away from its doors and ends: a door the drawing leaves out, or W wrong there.
+    #[serde(default)]
+    pub walls_crossed: u64,
     /// W's overall scale, drawing pixels per map meter.
     pub scale_px_per_m: f64,
     /// W's overall rotation from the map to the drawing frame, radians.

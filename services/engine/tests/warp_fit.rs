@@ -104,7 +104,7 @@ fn a_drawing_with_wrong_proportions_is_recovered_within_four_pixels() {
         3f64.to_radians(),
         Point2::new(truth_origin.x + 10.0, truth_origin.y - 8.0),
     );
-    let fit = fit_warp(&points, &lines, prior, &FitConfig::default()).expect("a fit");
+    let fit = fit_warp(&points, &[], &lines, prior, &FitConfig::default()).expect("a fit");
     for (x, y) in CORNERS {
         let corner = Point2::new(x, y);
         let off_px = fit.warp.apply(corner).distance(&drawn(corner));
@@ -152,7 +152,7 @@ fn a_drawing_in_proportion_gives_its_similarity_back() {
         })
         .collect();
     let prior = Similarity::new(18.0, -0.05, Point2::new(50.0, -240.0));
-    let fit = fit_warp(&points, &lines, prior, &FitConfig::default()).expect("a fit");
+    let fit = fit_warp(&points, &[], &lines, prior, &FitConfig::default()).expect("a fit");
     for (x, y) in CORNERS {
         let c = Point2::new(x, y);
         let off_px = fit.warp.apply(c).distance(&truth.apply(c));
@@ -179,7 +179,7 @@ fn a_drawing_stretched_and_sheared_as_a_whole_is_recovered_within_a_pixel() {
         })
         .collect();
     let prior = Similarity::new(20.0, 0.0, Point2::new(40.0, -290.0));
-    let fit = fit_warp(&points, &lines, prior, &FitConfig::default()).expect("a fit");
+    let fit = fit_warp(&points, &[], &lines, prior, &FitConfig::default()).expect("a fit");
     for (x, y) in CORNERS {
         let c = Point2::new(x, y);
         let off_px = fit.warp.apply(c).distance(&drawn(c));
@@ -192,8 +192,8 @@ fn nothing_to_fit_gives_none() {
     let prior = Similarity::new(20.0, 0.0, Point2::new(0.0, 0.0));
     let line = SketchLine::new(0, Point2::new(0.0, 0.0), Point2::new(10.0, 0.0));
     let config = FitConfig::default();
-    assert!(fit_warp(&[], &[line], prior, &config).is_none());
-    assert!(fit_warp(&[Point2::new(1.0, 1.0)], &[], prior, &config).is_none());
+    assert!(fit_warp(&[], &[], &[line], prior, &config).is_none());
+    assert!(fit_warp(&[Point2::new(1.0, 1.0)], &[], &[], prior, &config).is_none());
     let flat = Similarity::new(0.0, 0.0, Point2::new(0.0, 0.0));
-    assert!(fit_warp(&[Point2::new(1.0, 1.0)], &[line], flat, &config).is_none());
+    assert!(fit_warp(&[Point2::new(1.0, 1.0)], &[], &[line], flat, &config).is_none());
 }

@@ -72,7 +72,7 @@ fn a_wing_drawn_30_percent_too_wide_is_found_rooms_over() {
         .collect();
     // The start marked where it is drawn, the scale guessed right for the west wing.
     let prior = Similarity::new(PX_PER_M, 0.0, drawn(start));
-    let fit = fit_warp(&points, &drawing(), prior, &FitConfig::default()).expect("a fit");
+    let fit = fit_warp(&points, &[], &drawing(), prior, &FitConfig::default()).expect("a fit");
     // Every room's corners on the drawn ones within half a meter (the east wing's far end
     // lies 7.2 m, almost two rooms, beyond where the west wing's scale puts it; without the
     // region search the fit leaves a corner 5.3 m off).

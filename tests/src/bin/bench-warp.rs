@@ -66,6 +66,8 @@ struct TruthCheck {
     energy_found: f64,
     energy_truth: f64,
     energy_refit: f64,
+    /// Steps of the route the refit from the truth carries through a drawn wall.
+    crossed_refit: usize,
     refit_median_m: f64,
     truth_median_m: f64,
 }
@@ -85,6 +87,8 @@ struct Row {
     held: f64,
     inliers: usize,
     rms_px: f64,
+    /// Steps of the route W carries through a drawn wall.
+    crossed: usize,
     fit_s: f64,
 }
 
@@ -130,13 +134,13 @@ fn main() -> Result<()> {
     let mut rows = rows.into_inner().unwrap();
     rows.sort_by(|a, b| a.run.cmp(&b.run));
     println!(
-        "{:<48} {:>7} {:>7} {:>6} {:>6} {:>6} {:>7} {:>6} {:>6}",
-        "run", "med m", "p95 m", "≤1m %", "hdg °", "held %", "inliers", "rms px", "fit s"
+        "{:<48} {:>7} {:>7} {:>6} {:>6} {:>6} {:>7} {:>6} {:>5} {:>6}",
+        "run", "med m", "p95 m", "≤1m %", "hdg °", "held %", "inliers", "rms px", "cross", "fit s"
     );
     let opt = |v: Option<f64>, prec: usize| v.map_or("-".to_string(), |v| format!("{v:.prec$}"));
     for r in &rows {
         println!(
-            "{:<48} {:>7} {:>7} {:>6} {:>6} {:>6.0} {:>7} {:>6.2} {:>6.2}",
+            "{:<48} {:>7} {:>7} {:>6} {:>6} {:>6.0} {:>7} {:>6.2} {:>5} {:>6.2}",
             r.run,
             opt(r.median_m, 2),
             opt(r.p95_m, 2),
@@ -145,12 +149,18 @@ fn main() -> Result<()> {
             100.0 * r.held,
             r.inliers,
             r.rms_px,
+            r.crossed,
             r.fit_s
         );
         if let Some(t) = &r.truth {
             println!(
-                "    E found {:.0}, at the truth {:.0}, refitted from it {:.0} (median {:.2} m; the truth warp itself {:.2} m)",
-                t.energy_found, t.energy_truth, t.energy_refit, t.refit_median_m, t.truth_median_m
+                "    E found {:.0}, at the truth {:.0}, refitted from it {:.0} (median {:.2} m, {} steps through walls; the truth warp itself {:.2} m)",
+                t.energy_found,
+                t.energy_truth,
+                t.energy_refit,
+                t.refit_median_m,
+                t.crossed_refit,
+                t.truth_median_m
             );
         }
     }
@@ -247,6 +257,7 @@ fn score(path: &Path, config: FitConfig, render: bool, truth_start: bool) -> Res
         held,
         inliers: registration.fit.inliers,
         rms_px: registration.fit.rms_px,
+        crossed: registration.fit.walls_crossed,
         fit_s,
     };
     // Scored where the scenario says how the drawing was made (real logs' drawings: not).
@@ -297,6 +308,7 @@ fn apply_set(config: &mut FitConfig, set: &str) -> Result<()> {
         "search_starts" => config.search_starts = n()?,
         "finished_starts" => config.finished_starts = n()?,
         "proportion_change" => config.proportion_change = f()?,
+        "wall_spacing_m" => config.wall_spacing_m = f()?,
         _ => bail!("--set {key:?}: not a fit setting"),
     }
     Ok(())
@@ -365,9 +377,11 @@ fn truth_check(
         warp_iterations: 0,
         ..fine
     };
+    let route: Vec<Point2> = problem.anchors.iter().map(|k| k.position()).collect();
     let energy_at = |w: &Warp| {
         fit_warp_from(
             &problem.walls,
+            &route,
             &problem.lines,
             problem.prior,
             &still,
@@ -378,6 +392,7 @@ fn truth_check(
     let median = |w: &Warp| score_through(w, trajectory, truth, drawing).map(|s| s.median_m);
     let (refit, energy_refit) = fit_warp_from(
         &problem.walls,
+        &route,
         &problem.lines,
         problem.prior,
         &fine,
@@ -387,6 +402,7 @@ fn truth_check(
         energy_found: energy_at(found)?,
         energy_truth: energy_at(&start)?,
         energy_refit,
+        crossed_refit: refit.walls_crossed,
         refit_median_m: median(&refit.warp)?,
         truth_median_m: median(&start)?,
     })

@@ -554,7 +554,6 @@ impl Mapper {
     /// 0.1 m, the drawing's lines, the prior): O(keyframe points) under the caller's lock,
     /// the fit itself outside it. `None` for the other methods.
     pub fn warp_problem(&self) -> Option<WarpProblem> {
-        const VOXEL_M: f64 = 0.1;
         let drawing = self.drawing.as_ref()?;
         let back_end = self.back_end.as_ref()?;
         let closer = &back_end.closer;
@@ -564,7 +563,7 @@ impl Mapper {
         }
         let start = drawing.start;
         Some(WarpProblem {
-            walls: voxel_filter(&walls, VOXEL_M),
+            walls: voxel_filter(&walls, self.config.registration.wall_spacing_m),
             lines: drawing.sketch.lines.clone(),
             prior: Similarity::new(
                 1.0 / start.meters_per_pixel,

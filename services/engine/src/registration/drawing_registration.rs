@@ -51,7 +51,8 @@ pub struct WarpProblem {
 impl WarpProblem {
     /// [`fit_warp`] on the copied walls; `None` when nothing can be fitted yet.
     pub fn solve(&self) -> Option<DrawingRegistration> {
-        let fit = fit_warp(&self.walls, &self.lines, self.prior, &self.config)?;
+        let route: Vec<Point2> = self.anchors.iter().map(|k| k.position()).collect();
+        let fit = fit_warp(&self.walls, &route, &self.lines, self.prior, &self.config)?;
         Some(DrawingRegistration {
             fit,
             keyframes: self.keyframes,
@@ -172,6 +173,7 @@ mod tests {
                 inliers: 40,
                 rms_px: 0.5,
                 support,
+                walls_crossed: 0,
             },
             keyframes: 3,
             map_revision: 0,

@@ -9,7 +9,7 @@
 //! Minimises, over W's parameters `θ = (a, b, t, o)` (all linear in W),
 //!
 //! `E(θ) = Σ_i ρ(r_i) / σ_l² + |(a, b) − (a₀, b₀)|² / σ_ab² + |t − t₀|² / σ_t²
-//!        + Σ_stencils |Δ²o|² / σ_b² + Σ_k |o_k|² / σ_o²`
+//!        + Σ_stencils |Δ²o|² / σ_b² + Σ_k |o_k|² / σ_o² + c · X(θ)`
 //!
 //! - `r_i = n_i · (W(p_i) − f_i)`: the distance of the warped point from its nearest drawn
 //!   line (`f_i` the nearest point of the segment, `n_i` the unit direction from `f_i`, so
@@ -34,6 +34,16 @@
 //! - `σ_o = proportion_error · half the floor's extent`: how far a drawn point may lie from
 //!   where the best similarity puts it, so what a similarity explains stays in the
 //!   similarity.
+//! - `X(θ)`: the steps of the robot's route (keyframe to keyframe) that W carries through a
+//!   drawn wall, away from its doors and ends (`route`): the wall points say where drawn
+//!   walls are, the route where they cannot be. On a partial map a wrong W can lay clutter
+//!   and a half-seen room on drawn walls as well as the right one does; it then walks the
+//!   robot through walls. A step through a wall counts as the wall points that wall would
+//!   have given where the robot passed (`2 · gate_m / wall_spacing_m`, the margin each
+//!   way), each at the gate: `c = 2 (gate_m / wall_spacing_m) g² / σ_l²` with `g` the
+//!   stage's gate. `X` is a count, so it takes no part in the Gauss–Newton steps; it ranks
+//!   the fits from the starts and the region search's moves, where a wrong W and the right
+//!   one are told apart.
 //!
 //! Started from the prior and from the best starts of a global search over the prior's
 //! range (`search`: scale, stretch along the walls' axes, rotation, translation scored
@@ -62,6 +72,7 @@
 //! Pure: values in, values out.
 
 use super::region_search::region_starts;
+use super::route::RouteCheck;
 use super::search::{DirectionField, search_starts};
 use super::segment_grid::SegmentGrid;
 use super::warp::{ControlGrid, Similarity, Warp};
@@ -117,6 +128,10 @@ pub struct FitConfig {
     /// Change of the drawing's proportions from one cell to the next (σ_b / spacing): how
     /// far a person's drawing departs from a single affine map of the floor, per cell.
     pub proportion_change: f64,
+    /// The map's wall points lie this far apart along a wall, meters (the mapper thins
+    /// them to it): how many wall points a stretch of wall gives, so that a step of the
+    /// robot's route through a drawn wall counts as the points that wall would have given.
+    pub wall_spacing_m: f64,
 }
 
 impl Default for FitConfig {
@@ -138,6 +153,7 @@ impl Default for FitConfig {
             search_starts: 6,
             finished_starts: 2,
             proportion_change: 0.01,
+            wall_spacing_m: 0.1,
         }
     }
 }
@@ -154,6 +170,8 @@ pub struct WarpFit {
     /// Per control node, the inliers' bilinear weight on it: how many wall points hold it
     /// (0: nothing seen there, the node follows its neighbours).
     pub support: Vec<f64>,
+    /// Steps of the robot's route the warp carries through a drawn wall (`route`).
+    pub walls_crossed: usize,
 }
 
 /// A drawn line as a segment in the drawing frame `(u, −v)`, with its unit normal.
@@ -212,11 +230,12 @@ fn level_spacing_m(config: &FitConfig, level: usize) -> f64 {
 /// prior's scale is not a positive number.
 pub fn fit_warp(
     points: &[Point2],
+    route: &[Point2],
     lines: &[SketchLine],
     prior: Similarity,
     config: &FitConfig,
 ) -> Option<WarpFit> {
-    let problem = Prepared::new(points, lines, &prior, config)?;
+    let problem = Prepared::new(points, route, lines, &prior, config)?;
     // The prior itself, then the search's best starts; each on a grid of one cell over the
     // map, whose four corners hold a start whose axes scale apart exactly.
     let extent_m = (problem.hi.x - problem.lo.x)
@@ -301,12 +320,13 @@ const REGION_ROUNDS: usize = 3;
 /// more probable than the one the search found. `None` as [`fit_warp`].
 pub fn fit_warp_from(
     points: &[Point2],
+    route: &[Point2],
     lines: &[SketchLine],
     prior: Similarity,
     config: &FitConfig,
     start: Warp,
 ) -> Option<(WarpFit, f64)> {
-    let problem = Prepared::new(points, lines, &prior, config)?;
+    let problem = Prepared::new(points, route, lines, &prior, config)?;
     Some(problem.fit_from(
         start,
         Stages {
@@ -322,6 +342,8 @@ struct Prepared {
     prior: Similarity,
     config: FitConfig,
     points: Vec<WallPoint>,
+    /// The keyframes' positions in order, map meters (non-finite ones left out).
+    route: Vec<Point2>,
     segments: Vec<Segment>,
     index: SegmentGrid,
     lo: Point2,
@@ -331,6 +353,7 @@ struct Prepared {
 impl Prepared {
     fn new(
         points: &[Point2],
+        route: &[Point2],
         lines: &[SketchLine],
         prior: &Similarity,
         config: &FitConfig,
@@ -370,11 +393,33 @@ impl Prepared {
             prior: *prior,
             config: *config,
             points,
+            route: route
+                .iter()
+                .copied()
+                .filter(|r| r.x.is_finite() && r.y.is_finite())
+                .collect(),
             segments,
             index,
             lo,
             hi,
         })
+    }
+
+    /// Steps of the route `warp` carries through a drawn wall ([`RouteCheck`]).
+    fn walls_crossed(&self, warp: &Warp) -> usize {
+        let s0 = self.prior.scale_px_per_m();
+        RouteCheck {
+            segments: &self.segments,
+            index: &self.index,
+            reach_px: widest_gate_m(&self.config) * s0,
+            margin_px: self.config.gate_m * s0,
+            cos_tol: self
+                .config
+                .direction_tolerance_rad
+                .clamp(0.0, FRAC_PI_2)
+                .cos(),
+        }
+        .walls_crossed(warp, &self.route)
     }
 
     /// The fit's `stages` (similarity, then the control grids coarse to fine) from
@@ -451,13 +496,20 @@ impl Prepared {
         // E at the fit: the inliers' residuals, every other point at the gate, the priors.
         let sigma_l_px = (config.line_sigma_m * s0).max(1e-6);
         let outliers = points.len().saturating_sub(pairs.len()) as f64;
-        let cost = (sum_sq + outliers * gate_px * gate_px) / (sigma_l_px * sigma_l_px)
+        // And each step of the route through a drawn wall (`route`) at the wall points that
+        // wall would have given where the robot passed, the margin each way, each at the gate.
+        let walls_crossed = self.walls_crossed(&warp);
+        let points_per_crossing = 2.0 * config.gate_m / config.wall_spacing_m.max(1e-3);
+        let cost = (sum_sq
+            + (outliers + points_per_crossing * walls_crossed as f64) * gate_px * gate_px)
+            / (sigma_l_px * sigma_l_px)
             + normal_equations(&warp, &[], &prior, config, true).2;
         let fit = WarpFit {
             warp,
             inliers: pairs.len(),
             rms_px: (sum_sq / pairs.len().max(1) as f64).sqrt(),
             support,
+            walls_crossed,
         };
         (fit, cost)
     }

@@ -18,6 +18,7 @@ pub mod drawing_registration;
 pub mod fit;
 pub mod overlay;
 mod region_search;
+mod route;
 mod search;
 mod segment_grid;
 pub mod warp;
