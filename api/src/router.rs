@@ -676,10 +676,10 @@ pub(crate) async fn session_map_yaml(
     Ok(with_content_type("application/yaml", yaml))
 }
 
-/// Server-sent events: `status` first, then each new `pose` and `status` change; the
-/// stream ends when the session stops. Every event carries an `id:`; a client that
+/// Server-sent events: `status` and the pose now (once a scan has given one) first, then
+/// each new `pose` and `status` change; the stream ends when the session stops. Every event carries an `id:`; a client that
 /// reconnects with `Last-Event-ID` gets the events it missed (of the last few hundred the
-/// session keeps) and then the live feed, without the `status` first; an id the session no
+/// session keeps) and then the live feed, without the snapshot first; an id the session no
 /// longer keeps starts over with a `status`.
 #[utoipa::path(get, path = "/v1/sessions/{id}/events", tag = "sessions",
     params(
@@ -698,10 +698,12 @@ pub(crate) async fn session_events(
         .get("last-event-id")
         .and_then(|v| v.to_str().ok())
         .and_then(|v| v.trim().parse::<u64>().ok());
-    let (status, sub) = call(&state, move |b| {
+    let (status, pose, sub) = call(&state, move |b| {
         // Subscribe first so that nothing between the snapshot and the feed is missed.
         let sub = b.subscribe_events(&id, last_seen)?;
-        Ok((b.get_session(&id)?, sub))
+        // The pose now, once a scan has given one: a robot standing still publishes none.
+        let pose = b.pose(&id).ok().filter(|p| p.stamp.is_some());
+        Ok((b.get_session(&id)?, pose, sub))
     })
     .await?;
     let EventSubscription {
@@ -713,12 +715,12 @@ pub(crate) async fn session_events(
     let first: Vec<NumberedEvent> = if resumed {
         replay
     } else {
-        // The snapshot takes the id of the last event before it: resuming from it
-        // continues with what followed.
-        vec![NumberedEvent {
-            id: last_id,
-            event: SessionEvent::Status(status),
-        }]
+        // The snapshot (the status, then the pose now) takes the id of the last event
+        // before it: resuming from it continues with what followed.
+        std::iter::once(SessionEvent::Status(status))
+            .chain(pose.map(SessionEvent::Pose))
+            .map(|event| NumberedEvent { id: last_id, event })
+            .collect()
     };
     let live = BroadcastStream::new(live)
         .filter_map(|item| async move { item.ok() })

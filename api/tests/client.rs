@@ -93,7 +93,13 @@ async fn client_covers_every_endpoint() {
         Some(SessionEvent::Status(s)) => assert_eq!(s.id, session.id),
         other => panic!("expected status first, got {other:?}"),
     }
+    // Then the pose now, with the snapshot's id (no event before it: 0).
     let pose = fake.pose(&session.id).unwrap();
+    assert_eq!(
+        events.next_event().await.unwrap(),
+        Some(SessionEvent::Pose(pose.clone()))
+    );
+    assert_eq!(events.last_event_id(), Some(0));
     fake.events.lock().unwrap()[&session.id].publish(SessionEvent::Pose(pose.clone()));
     assert_eq!(
         events.next_event().await.unwrap(),

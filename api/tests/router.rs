@@ -672,7 +672,8 @@ async fn events_stream_status_then_poses_and_ends_on_stop() {
         .lines()
         .filter_map(|l| l.strip_prefix("event: "))
         .collect();
-    assert_eq!(names, ["status", "pose", "status"], "{text}");
+    // The snapshot (status, the pose now), the pose published, the stop.
+    assert_eq!(names, ["status", "pose", "pose", "status"], "{text}");
     assert!(text.contains("\"positionInitialized\":true"));
     assert!(text.contains("\"state\":\"stopped\""));
 }
@@ -694,8 +695,8 @@ async fn a_reconnecting_client_resumes_after_its_last_event_id() {
         }
         h.app.clone().oneshot(req.body(Body::empty()).unwrap())
     };
-    // Resumed after event 1: events 2 and 3, no status first; a fresh client and one with
-    // an id this session never gave start with the status.
+    // Resumed after event 1: events 2 and 3, no snapshot first; a fresh client and one with
+    // an id this session never gave start with the snapshot (status, the pose now).
     let resumed = events(Some("1")).await.unwrap();
     let fresh = events(None).await.unwrap();
     let unknown = events(Some("77")).await.unwrap();
@@ -720,8 +721,8 @@ async fn a_reconnecting_client_resumes_after_its_last_event_id() {
     assert_eq!(ids, ["2", "3", "4"]);
     for response in [fresh, unknown] {
         let (names, ids) = read(response).await;
-        assert_eq!(names, ["status", "status"]);
-        assert_eq!(ids, ["3", "4"]);
+        assert_eq!(names, ["status", "pose", "status"]);
+        assert_eq!(ids, ["3", "3", "4"]);
     }
 }
 
