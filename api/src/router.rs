@@ -677,10 +677,10 @@ pub(crate) async fn session_map_yaml(
 }
 
 /// Server-sent events: `status` and the pose now (once a scan has given one) first, then
-/// each new `pose` and `status` change; the stream ends when the session stops. Every event carries an `id:`; a client that
-/// reconnects with `Last-Event-ID` gets the events it missed (of the last few hundred the
-/// session keeps) and then the live feed, without the snapshot first; an id the session no
-/// longer keeps starts over with a `status`.
+/// each new `pose` and `status` change; the stream ends when the session stops. Every event
+/// carries an `id:`; a client that reconnects with `Last-Event-ID` gets the events it missed
+/// (of the last few hundred the session keeps) and then the live feed, without the snapshot
+/// first; an id the session no longer keeps starts over with the snapshot.
 #[utoipa::path(get, path = "/v1/sessions/{id}/events", tag = "sessions",
     params(
         ("id" = String, Path, description = "Session id"),

@@ -23,7 +23,6 @@ use sketchslam_slam::warp_cache::REFIT_KEYFRAMES;
 use std::path::Path;
 
 /// The warp a live session holds, refitted by the service's rule.
-#[derive(Default)]
 pub struct LiveWarp {
     held: Option<DrawingRegistration>,
     /// `Some` when the live fits' problems are kept.
@@ -41,11 +40,11 @@ pub struct LiveFit {
 }
 
 impl LiveWarp {
-    /// A live warp that keeps every fit's problem ([`LiveWarp::kept`]).
-    pub fn keeping_fits() -> Self {
+    /// No warp yet; with `keep_fits`, every fit's problem is kept ([`LiveWarp::kept`]).
+    pub fn new(keep_fits: bool) -> Self {
         Self {
             held: None,
-            kept: Some(Vec::new()),
+            kept: keep_fits.then(Vec::new),
         }
     }
 
@@ -75,7 +74,7 @@ impl LiveWarp {
         }
     }
 
-    /// The live fits kept, in order (empty unless made by [`LiveWarp::keeping_fits`]).
+    /// The live fits kept, in order (empty unless made to keep them).
     pub fn kept(self) -> Vec<LiveFit> {
         self.kept.unwrap_or_default()
     }

@@ -84,13 +84,8 @@ pub fn map_in_process(
     let mut scan_ms: Vec<f64> = Vec::new();
     // Each scan's pose as the session publishes it then, before later closures move it.
     let mut live: Vec<TrajectoryPoint> = Vec::new();
-    let mut live_warp = (method == Method::Sketch).then(|| {
-        if run_method.keep_live_warps {
-            LiveWarp::keeping_fits()
-        } else {
-            LiveWarp::default()
-        }
-    });
+    let mut live_warp =
+        (method == Method::Sketch).then(|| LiveWarp::new(run_method.keep_live_warps));
     let mut live_sketch_poses = Vec::new();
     for step in steps {
         // The truth does not depend on the mapper: recorded before it runs, outside the

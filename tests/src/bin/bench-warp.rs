@@ -377,7 +377,7 @@ fn truth_check(
         warp_iterations: 0,
         ..fine
     };
-    let route: Vec<Point2> = problem.anchors.iter().map(|k| k.position()).collect();
+    let route = problem.route();
     let energy_at = |w: &Warp| {
         fit_warp_from(
             &problem.walls,

@@ -551,7 +551,8 @@ impl Mapper {
     }
 
     /// What [`Mapper::drawing_registration`] fits, copied out (the keyframes' walls thinned to
-    /// 0.1 m, the drawing's lines, the prior): O(keyframe points) under the caller's lock,
+    /// the fit's `wall_spacing_m`, their poses, the drawing's lines, the prior): O(keyframe
+    /// points) under the caller's lock,
     /// the fit itself outside it. `None` for the other methods.
     pub fn warp_problem(&self) -> Option<WarpProblem> {
         let drawing = self.drawing.as_ref()?;

@@ -49,10 +49,21 @@ pub struct WarpProblem {
 }
 
 impl WarpProblem {
-    /// [`fit_warp`] on the copied walls; `None` when nothing can be fitted yet.
+    /// The robot's route the fit checks against the drawn walls: the keyframes' positions
+    /// ([`WarpProblem::anchors`]), in order.
+    pub fn route(&self) -> Vec<Point2> {
+        self.anchors.iter().map(|k| k.position()).collect()
+    }
+
+    /// [`fit_warp`] on the copied walls and route; `None` when nothing can be fitted yet.
     pub fn solve(&self) -> Option<DrawingRegistration> {
-        let route: Vec<Point2> = self.anchors.iter().map(|k| k.position()).collect();
-        let fit = fit_warp(&self.walls, &route, &self.lines, self.prior, &self.config)?;
+        let fit = fit_warp(
+            &self.walls,
+            &self.route(),
+            &self.lines,
+            self.prior,
+            &self.config,
+        )?;
         Some(DrawingRegistration {
             fit,
             keyframes: self.keyframes,

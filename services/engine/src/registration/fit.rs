@@ -189,6 +189,17 @@ pub(super) struct WallPoint {
 }
 
 impl Segment {
+    /// The segment from `a` to `b` with its unit normal (`a → b` turned a quarter to the
+    /// left); `None` when they coincide.
+    pub(super) fn between(a: Point2, b: Point2) -> Option<Self> {
+        let len = a.distance(&b);
+        (len > 0.0).then(|| Segment {
+            a,
+            b,
+            normal: Point2::new(-(b.y - a.y) / len, (b.x - a.x) / len),
+        })
+    }
+
     /// The nearest point of the segment to `p`.
     pub(super) fn foot(&self, p: Point2) -> Point2 {
         let (dx, dy) = (self.b.x - self.a.x, self.b.y - self.a.y);
@@ -375,13 +386,7 @@ impl Prepared {
         let segments: Vec<Segment> = lines
             .iter()
             .filter_map(|l| {
-                let (a, b) = (Point2::new(l.a.x, -l.a.y), Point2::new(l.b.x, -l.b.y));
-                let len = a.distance(&b);
-                (len > 0.0).then(|| Segment {
-                    a,
-                    b,
-                    normal: Point2::new(-(b.y - a.y) / len, (b.x - a.x) / len),
-                })
+                Segment::between(Point2::new(l.a.x, -l.a.y), Point2::new(l.b.x, -l.b.y))
             })
             .collect();
         if segments.is_empty() {
@@ -413,11 +418,7 @@ impl Prepared {
             index: &self.index,
             reach_px: widest_gate_m(&self.config) * s0,
             margin_px: self.config.gate_m * s0,
-            cos_tol: self
-                .config
-                .direction_tolerance_rad
-                .clamp(0.0, FRAC_PI_2)
-                .cos(),
+            cos_tol: direction_cos(&self.config),
         }
         .walls_crossed(warp, &self.route)
     }
@@ -436,7 +437,7 @@ impl Prepared {
         let (prior, config) = (self.prior, &self.config);
         let s0 = prior.scale_px_per_m();
         let px = |m: f64| m * s0;
-        let cos_tol = config.direction_tolerance_rad.clamp(0.0, FRAC_PI_2).cos();
+        let cos_tol = direction_cos(config);
         // Coarse to fine: spacings 2^(L−1)·s … s. A level's gate is what its cells cannot bend:
         // a person's proportion error over half a cell, and at least `gate_m`.
         let levels = config.levels.max(1);
@@ -550,6 +551,12 @@ fn converged(step: &DVector<f64>, lo: Point2, hi: Point2, s0: f64) -> bool {
     let linear = step[0].hypot(step[1]) * reach_m;
     let rest = step.iter().skip(2).fold(0.0f64, |m, v| m.max(v.abs()));
     linear.max(rest) < CONVERGED_M * s0
+}
+
+/// The cosine of the direction tolerance: a wall point and a drawn line (or two drawn
+/// lines) are of one direction when their normals' dot product is at least this.
+fn direction_cos(config: &FitConfig) -> f64 {
+    config.direction_tolerance_rad.clamp(0.0, FRAC_PI_2).cos()
 }
 
 /// A Gauss–Newton step below this (meters at the drawing's scale) ends a stage: a tenth of

@@ -65,7 +65,7 @@ impl RouteCheck<'_> {
             let middle = Point2::new(0.5 * (a.x + b.x), 0.5 * (a.y + b.y));
             self.index.near(middle).iter().any(|&s| {
                 let s = &self.segments[s as usize];
-                crossing(a, b, s).is_some_and(|x| self.wall_goes_on(x, s))
+                crossing(a, b, s).is_some_and(|x| self.away_from_opening(x, s))
             })
         })
     }
@@ -74,7 +74,7 @@ impl RouteCheck<'_> {
     /// line of its direction lies within `m` of `x` along it. An end is free when no other
     /// drawn line passes within `m / 4` of it: a door's jamb, a wall's end in a room; not
     /// the joint of two strokes in a row, nor a corner.
-    fn wall_goes_on(&self, x: Point2, s: &Segment) -> bool {
+    fn away_from_opening(&self, x: Point2, s: &Segment) -> bool {
         let near = self.index.near(x);
         !near.iter().any(|&k| {
             let t = &self.segments[k as usize];
@@ -123,13 +123,7 @@ mod tests {
     use crate::registration::warp::{ControlGrid, Similarity};
 
     fn segment(a: (f64, f64), b: (f64, f64)) -> Segment {
-        let (a, b) = (Point2::new(a.0, a.1), Point2::new(b.0, b.1));
-        let len = a.distance(&b);
-        Segment {
-            a,
-            b,
-            normal: Point2::new(-(b.y - a.y) / len, (b.x - a.x) / len),
-        }
+        Segment::between(Point2::new(a.0, a.1), Point2::new(b.0, b.1)).expect("distinct ends")
     }
 
     /// The identity at 10 px/m on a one-cell grid.

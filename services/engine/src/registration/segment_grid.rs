@@ -95,12 +95,7 @@ mod tests {
     use rand::{Rng, SeedableRng};
 
     fn segment(a: Point2, b: Point2) -> Segment {
-        let len = a.distance(&b);
-        Segment {
-            a,
-            b,
-            normal: Point2::new(-(b.y - a.y) / len, (b.x - a.x) / len),
-        }
+        Segment::between(a, b).expect("distinct ends")
     }
 
     #[test]
