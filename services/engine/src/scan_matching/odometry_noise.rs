@@ -90,6 +90,20 @@ pub struct IncrementSigma {
     pub heading_rad: f64,
 }
 
+impl IncrementSigma {
+    /// True when a position found by matching lies within `sigmas` of [`Self::position_m`]
+    /// (plus `floor_m`, the matcher's own resolution) of the odometry's prediction:
+    /// `|Δp| ≤ k·σ_t + f`, with `deviation` the prediction's `between` the match. A NaN
+    /// deviation is not admitted. O(1).
+    ///
+    /// Position only: a heading correction of a few degrees is what scan matching is for
+    /// (the previous pose's heading error against the reference, which the odometry's
+    /// increment knows nothing of), while a position many σ away is another basin.
+    pub fn admits_position(&self, deviation: &Pose2, sigmas: f64, floor_m: f64) -> bool {
+        deviation.x.hypot(deviation.y) <= sigmas * self.position_m + floor_m
+    }
+}
+
 impl OdometryNoise {
     /// The module doc's σ_t and σ_θ over `path`; a non-finite path gives infinite sigmas.
     pub fn sigma(&self, path: &OdometryPath) -> IncrementSigma {
@@ -128,6 +142,24 @@ mod tests {
         assert_eq!((still.position_m, still.heading_rad), (0.0, 0.0));
         let nan = OdometryPath::of_increment(&Pose2::new(f64::NAN, 0.0, 0.0));
         assert!(noise.sigma(&nan).heading_rad.is_infinite());
+    }
+
+    #[test]
+    fn admits_position_by_hand() {
+        // A turn in place of 0.53 rad with the defaults: σ_t = 0.05·0.53 = 0.0265 m;
+        // 5σ plus a 5 cm floor admits 0.1825 m.
+        let sigma = OdometryNoise::default().sigma(&OdometryPath {
+            travelled_m: 0.0,
+            turned_rad: 0.53,
+        });
+        let admits =
+            |x: f64, y: f64, h: f64| sigma.admits_position(&Pose2::new(x, y, h), 5.0, 0.05);
+        assert!(admits(0.18, 0.0, 0.0));
+        assert!(admits(0.11, 0.11, 0.5)); // 0.156 m; the heading is not judged
+        assert!(!admits(0.14, 0.14, 0.0)); // 0.198 m
+        // The Intel log's slide of 2026-12-05: 0.84 m while turning in place.
+        assert!(!admits(0.6, 0.6, 0.0));
+        assert!(!admits(f64::NAN, 0.0, 0.0));
     }
 
     #[test]
