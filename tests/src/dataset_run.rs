@@ -17,7 +17,7 @@
 use crate::live_warp::write_live_fits;
 use crate::metrics::{self, StampedPose};
 use crate::real_process::{StreamSource, map_through_processes, sketch_pose_of};
-use crate::relations::{Relation, RelationScore, score_relations};
+use crate::relations::{Relation, score_relations};
 use crate::run::{RunResult, read_map_occupied_points, read_trajectory_csv};
 use crate::run_loop::map_in_process;
 use crate::run_method::RunMethod;
@@ -50,36 +50,6 @@ pub fn dataset_relations(dataset: &Dataset) -> Result<Vec<Relation>> {
         Some(path) => crate::relations::read_relations(path, dataset.relations_time_offset_s),
         None => Ok(Vec::new()),
     }
-}
-
-/// A replay's own reference trajectory — the log's corrected poses at every scan and
-/// every odometry reading it publishes, before the drift it adds — scored on `relations`:
-/// what an estimate that recovered this replay's truth exactly would score, the floor under
-/// every method's figure. The Intel log keeps 910 of the original 13 631 scans and the
-/// relations' stamps lie between them, so a pose there is the corrected odometry's
-/// (measured 2026-12-04: 0.066 m, 2.3°, against GMapping's published 0.070 m on the whole
-/// log). `None` for a log without reference poses (raw odometry: CSAIL) or when no
-/// relation falls inside.
-pub fn replay_reference_relations(
-    dataset: &Dataset,
-    replay: Replay,
-    relations: &[Relation],
-) -> Option<RelationScore> {
-    if !dataset.has_reference_poses() {
-        return None;
-    }
-    let mut reference: Vec<StampedPose> = Vec::new();
-    for step in replay {
-        let t_s = step.event.stamp_ns() as f64 * 1e-9;
-        // A scan and its odometry share a stamp: one pose per stamp.
-        if reference.last().is_none_or(|last| t_s > last.t_s) {
-            reference.push(StampedPose {
-                t_s,
-                pose: step.truth,
-            });
-        }
-    }
-    score_relations(&reference, relations)
 }
 
 /// Maps `dataset`'s log with `method` in this process, writes the artifacts into `out_dir`
@@ -132,6 +102,11 @@ pub fn run_dataset_in_process(
         write_sketch_artifacts(out_dir, cfg, estimate.map, &sketch_pose)?;
     }
     run.fill(&mut result, &dataset.name, method, sketch);
+    if dataset.has_reference_poses() {
+        // The log's corrected poses are a reference (GMapping's on the Intel log): each
+        // loop of the graph against them, as for a simulated run.
+        result.loops_off_truth = run.audit_loops(out_dir)?;
+    }
     Ok(result)
 }
 
@@ -378,44 +353,5 @@ mod tests {
         let img = draw_overlay(&[Point2::new(5.0, 3.0)], &truth, &truth, &Pose2::IDENTITY);
         assert!((139..=141).contains(&img.width()), "{}", img.width());
         assert!((99..=101).contains(&img.height()), "{}", img.height());
-    }
-}
-
-/// Checks against the shared Intel data set (skipped with a note when it is absent).
-#[cfg(test)]
-mod intel_tests {
-    use super::*;
-
-    fn intel() -> Option<Dataset> {
-        let dir = Path::new(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../shared/datasets/intel-lab"
-        ));
-        if !dir
-            .join(sketchslam_simulator::dataset::DATASET_FILE)
-            .is_file()
-        {
-            eprintln!("skipped: no shared dataset at {}", dir.display());
-            return None;
-        }
-        Some(Dataset::load(dir).unwrap())
-    }
-
-    /// The log's own poses, scored on the relations: the replay's clock and the relation
-    /// times line up when this is near GMapping's published 0.070 m.
-    #[test]
-    fn the_replays_reference_scores_near_gmapping() {
-        let Some(dataset) = intel() else { return };
-        let relations = dataset_relations(&dataset).unwrap();
-        assert_eq!(relations.len(), 2984);
-        let replay = Replay::new(&dataset).unwrap();
-        let reference = replay_reference_relations(&dataset, replay, &relations).unwrap();
-        // Measured 2026-12-04: 0.066 m, 2.3°; the relations' stamps must be the log's, or
-        // the reference would be off by the motion between them.
-        assert!(
-            (0.03..0.1).contains(&reference.trans_mean_m) && reference.rot_mean_deg < 4.0,
-            "{reference:?}"
-        );
-        assert_eq!(reference.used, 2984);
     }
 }

@@ -11,6 +11,7 @@ pub mod overlay;
 pub mod processes;
 pub mod real_process;
 pub mod relations;
+pub mod replay_floor;
 pub mod run;
 pub mod run_loop;
 pub mod run_method;

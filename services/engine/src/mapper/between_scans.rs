@@ -28,11 +28,7 @@ use sketchslam_types::Pose2;
 /// Blends the interior of `stretch` (a placed scan at each end) as the module doc says;
 /// `odometry[i]` is the odometry reading of `stretch[i]`. Ends, and stretches of fewer
 /// than three poses or no time, are left as they are; a non-finite blend keeps the pose.
-pub(super) fn blend_stretch(
-    stretch: &mut [TrajectoryPoint],
-    odometry: &[Pose2],
-    noise: &OdometryNoise,
-) {
+pub fn blend_stretch(stretch: &mut [TrajectoryPoint], odometry: &[Pose2], noise: &OdometryNoise) {
     let n = stretch.len().min(odometry.len());
     if n < 3 {
         return;

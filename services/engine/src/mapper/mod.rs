@@ -52,6 +52,7 @@ mod method;
 mod output;
 mod sketch_front_end;
 
+pub use between_scans::blend_stretch;
 pub use config::{IcpReference, MapperConfig, SketchPrior};
 pub use frame::ScanFrame;
 pub use front_end_io::{FrontEndInput, FrontEndOutput, SketchReport};
