@@ -5,36 +5,17 @@
 
 mod common;
 
-use common::{Seg, scan_270, seg};
+use common::{alcove_room, scan_270};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use sketchslam_engine::mapper::{Mapper, MapperConfig, Method};
 use sketchslam_types::{Odometry, Pose2};
 
-/// An 8 × 5 m room with a 2 × 1 m alcove off its north wall and a pillar: nothing in it
-/// repeats under a turn.
-fn room() -> Vec<Seg> {
-    vec![
-        seg(0.0, 0.0, 8.0, 0.0),
-        seg(8.0, 0.0, 8.0, 5.0),
-        seg(8.0, 5.0, 5.0, 5.0),
-        seg(5.0, 5.0, 5.0, 6.0),
-        seg(5.0, 6.0, 3.0, 6.0),
-        seg(3.0, 6.0, 3.0, 5.0),
-        seg(3.0, 5.0, 0.0, 5.0),
-        seg(0.0, 5.0, 0.0, 0.0),
-        seg(6.0, 1.0, 6.4, 1.0),
-        seg(6.4, 1.0, 6.4, 1.4),
-        seg(6.4, 1.4, 6.0, 1.4),
-        seg(6.0, 1.4, 6.0, 1.0),
-    ]
-}
-
 /// Maps scans from (2, 2): six facing +x, then one after the robot turned
 /// `true_turn_rad` in five steps over a second while its odometry reported `odom_turn_rad`.
 /// Returns the second scan's map heading.
 fn second_heading(config: MapperConfig, true_turn_rad: f64, odom_turn_rad: f64) -> f64 {
-    let walls = room();
+    let walls = alcove_room();
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let mut mapper = Mapper::new(Method::Graph, None, config).unwrap();
     let odometry = |k: u64, heading_rad: f64| Odometry {

@@ -12,33 +12,16 @@
 
 mod common;
 
-use common::{Seg, scan_270, seg};
+use common::{alcove_room, scan_270};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use sketchslam_engine::mapper::{Mapper, MapperConfig, Method};
 use sketchslam_types::{Odometry, Pose2};
 
-fn room() -> Vec<Seg> {
-    vec![
-        seg(0.0, 0.0, 8.0, 0.0),
-        seg(8.0, 0.0, 8.0, 5.0),
-        seg(8.0, 5.0, 5.0, 5.0),
-        seg(5.0, 5.0, 5.0, 6.0),
-        seg(5.0, 6.0, 3.0, 6.0),
-        seg(3.0, 6.0, 3.0, 5.0),
-        seg(3.0, 5.0, 0.0, 5.0),
-        seg(0.0, 5.0, 0.0, 0.0),
-        seg(6.0, 1.0, 6.4, 1.0),
-        seg(6.4, 1.0, 6.4, 1.4),
-        seg(6.4, 1.4, 6.0, 1.4),
-        seg(6.0, 1.4, 6.0, 1.0),
-    ]
-}
-
 /// Six scans standing at (2, 2), then one from `moved_to` while the odometry reports
 /// `odom_x_m` forward; the last scan's map x (the map frame is the start's, at (2, 2)).
 fn last_x(config: MapperConfig, moved_to: Pose2, odom_x_m: f64) -> f64 {
-    let walls = room();
+    let walls = alcove_room();
     let mut rng = ChaCha8Rng::seed_from_u64(11);
     let mut mapper = Mapper::new(Method::Graph, None, config).unwrap();
     let odometry = |k: u64, x_m: f64| Odometry {

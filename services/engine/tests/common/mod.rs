@@ -96,3 +96,22 @@ pub fn drawn_lines(
     }
     lines
 }
+
+/// An 8 × 5 m room with a 2 × 1 m alcove off its north wall and a pillar: nothing in it
+/// repeats under a turn.
+pub fn alcove_room() -> Vec<Seg> {
+    vec![
+        seg(0.0, 0.0, 8.0, 0.0),
+        seg(8.0, 0.0, 8.0, 5.0),
+        seg(8.0, 5.0, 5.0, 5.0),
+        seg(5.0, 5.0, 5.0, 6.0),
+        seg(5.0, 6.0, 3.0, 6.0),
+        seg(3.0, 6.0, 3.0, 5.0),
+        seg(3.0, 5.0, 0.0, 5.0),
+        seg(0.0, 5.0, 0.0, 0.0),
+        seg(6.0, 1.0, 6.4, 1.0),
+        seg(6.4, 1.0, 6.4, 1.4),
+        seg(6.4, 1.4, 6.0, 1.4),
+        seg(6.0, 1.4, 6.0, 1.0),
+    ]
+}
