@@ -18,50 +18,33 @@ use sketchslam_simulator::dataset::Dataset;
 use sketchslam_simulator::replay::Replay;
 use sketchslam_types::{Pose2, SensorEvent};
 
-/// A replay's own reference trajectory — the log's corrected poses at every scan and
-/// every odometry reading it publishes, before the drift it adds — scored on `relations`:
-/// what an estimate that recovered this replay's truth exactly would score, the floor under
-/// every method's figure. The Intel log keeps 910 of the original 13 631 scans and the
-/// relations' stamps lie between them, so a pose there is the corrected odometry's
-/// (measured 2026-12-04: 0.066 m, 2.3°, against GMapping's published 0.070 m on the whole
-/// log). `None` for a log without reference poses (raw odometry: CSAIL) or when no
-/// relation falls inside.
-pub fn replay_reference_relations(
-    dataset: &Dataset,
-    replay: Replay,
-    relations: &[Relation],
-) -> Option<RelationScore> {
-    if !dataset.has_reference_poses() {
-        return None;
-    }
-    let mut reference: Vec<StampedPose> = Vec::new();
-    for step in replay {
-        let t_s = step.event.stamp_ns() as f64 * 1e-9;
-        // A scan and its odometry share a stamp: one pose per stamp.
-        if reference.last().is_none_or(|last| t_s > last.t_s) {
-            reference.push(StampedPose {
-                t_s,
-                pose: step.truth,
-            });
-        }
-    }
-    score_relations(&reference, relations)
+/// The two floors of a replay on the same relations.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReplayFloors {
+    /// The replay's own reference — the log's corrected poses at every scan and every
+    /// odometry reading it publishes, before the drift it adds: what an estimate that
+    /// recovered this replay's truth exactly would score (measured 2026-12-04 on the Intel
+    /// log: 0.066 m, 2.3°, against GMapping's published 0.070 m on the whole log).
+    pub reference: RelationScore,
+    /// The reference at every scan, and between scans the replay's *published* (drifted)
+    /// odometry carried from the scans at both ends and blended by the mapper's rule with
+    /// the mapper's default error model: what a method that placed every scan exactly
+    /// would score (measured 2026-12-05 on the Intel log: 0.074 m, 2.5°).
+    pub exact_scans: RelationScore,
 }
 
-/// The replay's reference at every scan, and between scans its *published* (drifted)
-/// odometry carried from the scans at both ends and blended by the mapper's rule with the
-/// mapper's default error model, scored on `relations`: what a method that placed every
-/// scan exactly would score. `None` as for [`replay_reference_relations`]. Measured
-/// 2026-12-05 on the Intel log: see `evaluate`'s output.
-pub fn replay_exact_scan_relations(
+/// Both floors of `replay` on `relations`, in one pass over the log. `None` for a log
+/// without reference poses (raw odometry: CSAIL) or when no relation falls inside.
+pub fn replay_floors(
     dataset: &Dataset,
     replay: Replay,
     relations: &[Relation],
-) -> Option<RelationScore> {
+) -> Option<ReplayFloors> {
     if !dataset.has_reference_poses() {
         return None;
     }
-    // One pose per stamp (a scan and its odometry reading share one), as the mapper keeps.
+    // One pose per stamp (a scan and its odometry reading share one), as the mapper keeps:
+    // the reference's, with the published odometry reading at it.
     let mut points: Vec<TrajectoryPoint> = Vec::new();
     let mut odometry: Vec<Pose2> = Vec::new();
     let mut scans: Vec<usize> = Vec::new();
@@ -72,16 +55,12 @@ pub fn replay_exact_scan_relations(
             odometry_now = o.pose();
         }
         let is_scan = matches!(step.event, SensorEvent::Scan(_));
-        let last_stamp_ns = points.last().map(|p| p.stamp_ns);
-        match last_stamp_ns {
+        match points.last().map(|p| p.stamp_ns) {
             Some(t) if t == stamp_ns => {
                 let i = points.len() - 1;
                 odometry[i] = odometry_now;
-                if is_scan {
-                    points[i].pose = step.truth;
-                    if scans.last() != Some(&i) {
-                        scans.push(i);
-                    }
+                if is_scan && scans.last() != Some(&i) {
+                    scans.push(i);
                 }
             }
             Some(t) if t > stamp_ns => {}
@@ -97,7 +76,9 @@ pub fn replay_exact_scan_relations(
             }
         }
     }
-    // After the last scan, the odometry carried forward from it.
+    let reference = score_relations(&stamped(&points), relations)?;
+    // The scans stay at the reference; after the last one the odometry is carried forward
+    // from it, between two the mapper's blend.
     if let Some(&last) = scans.last() {
         for j in last + 1..points.len() {
             points[j].pose = points[last]
@@ -110,14 +91,22 @@ pub fn replay_exact_scan_relations(
         let (i0, i1) = (pair[0], pair[1]);
         blend_stretch(&mut points[i0..=i1], &odometry[i0..=i1], &noise);
     }
-    let estimate: Vec<StampedPose> = points
+    let exact_scans = score_relations(&stamped(&points), relations)?;
+    Some(ReplayFloors {
+        reference,
+        exact_scans,
+    })
+}
+
+/// `points` as the scoring's stamped poses.
+fn stamped(points: &[TrajectoryPoint]) -> Vec<StampedPose> {
+    points
         .iter()
         .map(|p| StampedPose {
             t_s: p.stamp_ns as f64 * 1e-9,
             pose: p.pose,
         })
-        .collect();
-    score_relations(&estimate, relations)
+        .collect()
 }
 
 /// Checks against the shared Intel data set, which `.ci/run` keeps beside the checkout.
@@ -140,15 +129,18 @@ mod intel_tests {
         })
     }
 
+    fn floors() -> ReplayFloors {
+        let dataset = intel();
+        let relations = dataset_relations(&dataset).unwrap();
+        assert_eq!(relations.len(), 2984);
+        replay_floors(&dataset, Replay::new(&dataset).unwrap(), &relations).unwrap()
+    }
+
     /// The log's own poses, scored on the relations: the replay's clock and the relation
     /// times line up when this is near GMapping's published 0.070 m.
     #[test]
     fn the_replays_reference_scores_near_gmapping() {
-        let dataset = intel();
-        let relations = dataset_relations(&dataset).unwrap();
-        assert_eq!(relations.len(), 2984);
-        let replay = Replay::new(&dataset).unwrap();
-        let reference = replay_reference_relations(&dataset, replay, &relations).unwrap();
+        let reference = floors().reference;
         // Measured 2026-12-04: 0.066 m, 2.3°; the relations' stamps must be the log's, or
         // the reference would be off by the motion between them.
         assert!(
@@ -162,17 +154,13 @@ mod intel_tests {
     /// costs), but by less than odometry carried forward alone would cost.
     #[test]
     fn exact_scans_score_a_little_above_the_reference() {
-        let dataset = intel();
-        let relations = dataset_relations(&dataset).unwrap();
-        let reference =
-            replay_reference_relations(&dataset, Replay::new(&dataset).unwrap(), &relations)
-                .unwrap();
-        let exact =
-            replay_exact_scan_relations(&dataset, Replay::new(&dataset).unwrap(), &relations)
-                .unwrap();
-        println!("reference {reference:?}\nexact scans {exact:?}");
-        assert_eq!(exact.used, reference.used);
-        let above = exact.trans_mean_m - reference.trans_mean_m;
+        let ReplayFloors {
+            reference,
+            exact_scans,
+        } = floors();
+        println!("reference {reference:?}\nexact scans {exact_scans:?}");
+        assert_eq!(exact_scans.used, reference.used);
+        let above = exact_scans.trans_mean_m - reference.trans_mean_m;
         assert!((0.0..0.02).contains(&above), "{above}");
     }
 }

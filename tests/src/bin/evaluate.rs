@@ -42,8 +42,8 @@ use sketchslam_tests::generated::{
     loops_that_hurt, plan_worlds, summarize, summary_table, worst_worlds,
 };
 use sketchslam_tests::real_process::run_real_process;
-use sketchslam_tests::relations::{RelationScore, published_relation_errors};
-use sketchslam_tests::replay_floor::{replay_exact_scan_relations, replay_reference_relations};
+use sketchslam_tests::relations::published_relation_errors;
+use sketchslam_tests::replay_floor::{ReplayFloors, replay_floors};
 use sketchslam_tests::run::{RunResult, run_in_process, run_name};
 use sketchslam_tests::run_method::RunMethod;
 use std::path::PathBuf;
@@ -192,11 +192,8 @@ fn main() -> Result<()> {
         };
         eprintln!("note: {}", replay.drift_note());
         let relations = dataset_relations(dataset)?;
-        if let Some(floor) = replay_reference_relations(dataset, replay, &relations) {
-            let exact = sketchslam_simulator::replay::Replay::new(dataset)
-                .ok()
-                .and_then(|replay| replay_exact_scan_relations(dataset, replay, &relations));
-            floors.push((dataset.name.clone(), floor, exact));
+        if let Some(floor) = replay_floors(dataset, replay, &relations) {
+            floors.push((dataset.name.clone(), floor));
         }
     }
     let jobs = args
@@ -481,10 +478,7 @@ fn num(v: f64, width: usize, decimals: usize) -> String {
 }
 
 /// Relation errors of the dataset runs, with the published figures beside.
-fn print_relations(
-    results: &[RunResult],
-    floors: &[(String, RelationScore, Option<RelationScore>)],
-) {
+fn print_relations(results: &[RunResult], floors: &[(String, ReplayFloors)]) {
     let runs: Vec<&RunResult> = results.iter().filter(|r| r.relations.is_some()).collect();
     if runs.is_empty() {
         return;
@@ -515,7 +509,8 @@ fn print_relations(
         if let Some(figures) = published_relation_errors(name) {
             println!("published ({name}, same relations): {figures}");
         }
-        if let Some((_, r, exact)) = floors.iter().find(|(n, _, _)| n == name) {
+        if let Some((_, floor)) = floors.iter().find(|(n, _)| n == name) {
+            let (r, e) = (&floor.reference, &floor.exact_scans);
             println!(
                 "floor ({name}): the replay's own reference (the log's corrected poses at its scans \
                  and odometry, no drift) on the same relations: {} m, {} deg, what an estimate \
@@ -523,15 +518,13 @@ fn print_relations(
                 pm(Some(r.trans_mean_m), Some(r.trans_sd_m)),
                 pm(Some(r.rot_mean_deg), Some(r.rot_sd_deg)),
             );
-            if let Some(e) = exact {
-                println!(
-                    "floor with exact scans ({name}): the reference at every scan, the \
-                     replay's drifted odometry between scans blended as the mapper does: {} m, \
-                     {} deg, the best a method that places scans can expect",
-                    pm(Some(e.trans_mean_m), Some(e.trans_sd_m)),
-                    pm(Some(e.rot_mean_deg), Some(e.rot_sd_deg)),
-                );
-            }
+            println!(
+                "floor with exact scans ({name}): the reference at every scan, the \
+                 replay's drifted odometry between scans blended as the mapper does: {} m, \
+                 {} deg, the best a method that places scans can expect",
+                pm(Some(e.trans_mean_m), Some(e.trans_sd_m)),
+                pm(Some(e.rot_mean_deg), Some(e.rot_sd_deg)),
+            );
         }
     }
 }

@@ -125,9 +125,9 @@ pub(super) struct KeyframeIcp {
     route_m: f64,
     /// The previous scan's guess.
     last_guess: Option<Pose2>,
-    /// The position variance each recent scan was placed with (its covariance's larger
-    /// eigenvalue, m²) and the route length at it: what the reference built from them is
-    /// uncertain by, summed over the submap's route.
+    /// With the gate on: the position variance each recent scan was placed with (its
+    /// covariance's larger eigenvalue, m²) and the route length at it: what the reference
+    /// built from them is uncertain by, summed over the submap's route.
     recent_variance: VecDeque<(f64, f64)>,
 }
 
@@ -172,13 +172,7 @@ impl KeyframeIcp {
             self.recent_variance.clear();
         }
         self.submap.push_back((self.route_m, previous));
-        while self
-            .submap
-            .front()
-            .is_some_and(|(m, _)| self.route_m - m > SUBMAP_LENGTH_M)
-        {
-            self.submap.pop_front();
-        }
+        forget_behind(&mut self.submap, self.route_m);
         let all: Vec<Point2> = self
             .submap
             .iter()
@@ -213,17 +207,14 @@ impl KeyframeIcp {
                 Aligned { pose, covariance }
             }
         };
-        let xy = aligned.covariance.fixed_view::<2, 2>(0, 0).into_owned();
-        let largest = xy.symmetric_eigenvalues().max();
-        if largest.is_finite() {
-            self.recent_variance.push_back((self.route_m, largest));
-        }
-        while self
-            .recent_variance
-            .front()
-            .is_some_and(|(m, _)| self.route_m - m > SUBMAP_LENGTH_M)
-        {
-            self.recent_variance.pop_front();
+        if self.odometry_gate_sigmas.is_some() {
+            // (Only the gate reads it.)
+            let xy = aligned.covariance.fixed_view::<2, 2>(0, 0).into_owned();
+            let largest = xy.symmetric_eigenvalues().max();
+            if largest.is_finite() {
+                self.recent_variance.push_back((self.route_m, largest));
+            }
+            forget_behind(&mut self.recent_variance, self.route_m);
         }
         aligned
     }
@@ -334,6 +325,17 @@ impl KeyframeIcp {
             pose,
             icp: Some(result),
         }
+    }
+}
+
+/// Drops the entries of `queue` (route length at each, oldest first) more than
+/// [`SUBMAP_LENGTH_M`] of route behind `route_m`.
+fn forget_behind<T>(queue: &mut VecDeque<(f64, T)>, route_m: f64) {
+    while queue
+        .front()
+        .is_some_and(|(m, _)| route_m - m > SUBMAP_LENGTH_M)
+    {
+        queue.pop_front();
     }
 }
 
