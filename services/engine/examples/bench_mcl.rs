@@ -1,5 +1,7 @@
 //! Benchmark of MCL on the sketch: pseudo-range rays per second on a drawing, and the time
-//! of one MCL update (eq. 3) per scan at the defaults (500 particles, 60 beams).
+//! of one MCL update per scan at the defaults (500 particles, 60 beams) with each
+//! observation model (the paper's ray-traced eq. (3), the drawing's likelihood field), on
+//! the same drive and seed.
 //!
 //! The drawing is synthetic (0.05 m/px, 1000 × 700 px, a corridor loop with rooms, 20
 //! lines), so the numbers do not depend on the sketch ingestion. Run with
@@ -10,6 +12,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use sketchslam_engine::localization::line_observation::{LineObservationConfig, observe_lines};
 use sketchslam_engine::localization::mcl::{MclConfig, SketchMcl, StartSpread};
+use sketchslam_engine::localization::observation_model::ObservationModel;
 use sketchslam_engine::sketch::raycast::SketchRaycaster;
 use sketchslam_engine::sketch::{Sketch, SketchLine, SketchPose};
 use sketchslam_types::{Point2, Pose2, Scan, ScanHeader};
@@ -97,8 +100,67 @@ fn main() {
     }
     let ray_s = t0.elapsed().as_secs_f64();
     let rays_per_s = rays as f64 / ray_s;
+    println!("| measure | value |");
+    println!("| --- | --- |");
+    println!("| raycaster build (1000×700 px, 20 lines) | {build_ms:.1} ms |");
+    println!(
+        "| pseudo-range rays per second | {:.2} M/s ({hits} of {rays} hit) |",
+        rays_per_s / 1e6
+    );
+    let mut json = Vec::new();
+    for model in [ObservationModel::RayCast, ObservationModel::LikelihoodField] {
+        let run = drive(&rc, model);
+        println!(
+            "| {model:?}: MCL predict per scan ({} particles) | {:.3} ms |",
+            run.particles, run.predict_ms
+        );
+        println!(
+            "| {model:?}: MCL update per scan ({} particles × {} beams) | {:.2} ms |",
+            run.particles, run.beams_used, run.update_ms
+        );
+        println!(
+            "| {model:?}: eq. (4) per scan (1081 beams) | {:.3} ms |",
+            run.observe_ms
+        );
+        println!(
+            "| {model:?}: final error / scale | {:.3} m / {:.4} m/px |",
+            run.err_m, run.scale
+        );
+        json.push(format!(
+            "{{\"model\":\"{model:?}\",\"particles\":{},\"beams_used\":{},\"predict_ms\":{:.4},\
+             \"update_ms\":{:.3},\"observe_lines_ms\":{:.4},\"final_error_m\":{:.4},\
+             \"final_scale_m_per_px\":{:.5}}}",
+            run.particles,
+            run.beams_used,
+            run.predict_ms,
+            run.update_ms,
+            run.observe_ms,
+            run.err_m,
+            run.scale
+        ));
+    }
+    println!(
+        "{{\"bench\":\"bench_mcl\",\"build_ms\":{build_ms:.2},\"rays_per_s\":{rays_per_s:.0},\
+         \"models\":[{}]}}",
+        json.join(",")
+    );
+}
 
-    // MCL: the robot drives along the bottom corridor, one scan per 0.08 m.
+/// One model's drive: timings per scan and where it ended.
+struct Drive {
+    particles: usize,
+    beams_used: usize,
+    predict_ms: f64,
+    update_ms: f64,
+    observe_ms: f64,
+    err_m: f64,
+    scale: f64,
+}
+
+/// MCL with `model` while the robot drives along the bottom corridor, one scan per 0.08 m;
+/// the same seed for every model.
+fn drive(rc: &SketchRaycaster, model: ObservationModel) -> Drive {
+    let mut rng = ChaCha8Rng::seed_from_u64(2);
     let mut truth = SketchPose {
         u_px: 60.0,
         v_px: 640.0,
@@ -109,65 +171,42 @@ fn main() {
         meters_per_pixel: 0.06,
         ..truth
     };
-    let config = MclConfig::default();
+    let config = MclConfig {
+        observation: model,
+        ..MclConfig::default()
+    };
     let (particles, beams_used) = (config.particles, config.beams_used);
     let mut mcl = SketchMcl::new(config, start, StartSpread::default(), &mut rng).unwrap();
     let scans = 300usize;
     let (mut predict_s, mut update_s, mut observe_s) = (0.0, 0.0, 0.0);
     for _ in 0..scans {
         truth = truth.advanced(0.08, 0.0, 0.0);
-        let scan = scan_at(&rc, &truth);
+        let scan = scan_at(rc, &truth);
         let t = Instant::now();
         mcl.predict(Pose2::new(0.08, 0.0, 0.0), &mut rng);
         predict_s += t.elapsed().as_secs_f64();
         let t = Instant::now();
-        mcl.update(&scan, &rc);
+        mcl.update(&scan, rc);
         update_s += t.elapsed().as_secs_f64();
         let t = Instant::now();
         let obs = observe_lines(
             &mcl.estimate(),
             &scan,
-            &rc,
+            rc,
             &LineObservationConfig::default(),
         );
         observe_s += t.elapsed().as_secs_f64();
         std::hint::black_box(obs);
     }
     let est = mcl.estimate();
-    let err_m = (est.u_px - truth.u_px).hypot(est.v_px - truth.v_px) * 0.05;
     let per = |s: f64| s / scans as f64 * 1e3;
-
-    println!("| measure | value |");
-    println!("| --- | --- |");
-    println!("| raycaster build (1000×700 px, 20 lines) | {build_ms:.1} ms |");
-    println!(
-        "| pseudo-range rays per second | {:.2} M/s ({hits} of {rays} hit) |",
-        rays_per_s / 1e6
-    );
-    println!(
-        "| MCL predict per scan ({particles} particles) | {:.3} ms |",
-        per(predict_s)
-    );
-    println!(
-        "| MCL update per scan ({particles} particles × {beams_used} beams) | {:.2} ms |",
-        per(update_s)
-    );
-    println!(
-        "| eq. (4) per scan (1081 beams) | {:.3} ms |",
-        per(observe_s)
-    );
-    println!(
-        "| final error / scale | {err_m:.3} m / {:.4} m/px |",
-        est.meters_per_pixel
-    );
-    println!(
-        "{{\"bench\":\"bench_mcl\",\"build_ms\":{build_ms:.2},\"rays_per_s\":{rays_per_s:.0},\
-         \"particles\":{particles},\"beams_used\":{beams_used},\"predict_ms\":{:.4},\
-         \"update_ms\":{:.3},\"observe_lines_ms\":{:.4},\"final_error_m\":{err_m:.4},\
-         \"final_scale_m_per_px\":{:.5}}}",
-        per(predict_s),
-        per(update_s),
-        per(observe_s),
-        est.meters_per_pixel
-    );
+    Drive {
+        particles,
+        beams_used,
+        predict_ms: per(predict_s),
+        update_ms: per(update_s),
+        observe_ms: per(observe_s),
+        err_m: (est.u_px - truth.u_px).hypot(est.v_px - truth.v_px) * 0.05,
+        scale: est.meters_per_pixel,
+    }
 }

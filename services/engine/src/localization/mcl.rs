@@ -5,7 +5,9 @@
 //! Where in the pipeline: step 2 of every scan of a `sketch` session. Odometry moves the
 //! particle cloud ([`SketchMcl::predict`], eq. 1–2), the scan weighs it against pseudo-ranges
 //! ray-traced on the sketch's lines ([`SketchMcl::update`], eq. 3), and the estimate
-//! ([`SketchMcl::estimate`]) feeds the line observation probability (eq. 4). When the
+//! ([`SketchMcl::estimate`]) feeds the line observation probability (eq. 4). The
+//! observation model is [`super::observation_model`]'s: eq. (3) or the drawing's
+//! likelihood field. When the
 //! estimate breaks down, [`crate::localization::recovery`] builds a new cloud and
 //! [`SketchMcl::restart_with`] counts it.
 //!
@@ -14,9 +16,11 @@
 //! is per particle and random-walks as the robot travels.
 //!
 //! Costs per call, `N` particles, `B` used beams, `C` the cost of one ray cast
-//! (see [`crate::sketch::raycast`]): `predict` O(N), `update` O(N·B·C + N) (plus B casts for
-//! the score), `estimate` O(N).
+//! (see [`crate::sketch::raycast`]): `predict` O(N), `update` O(N·B·C + N) with eq. (3),
+//! O(N·B + N·B_u·C) with the likelihood field (`B_u` the beams it cannot explain), plus
+//! B casts for the score; `estimate` O(N).
 
+use super::observation_model::{Beam, ObservationModel};
 use crate::EngineError;
 use crate::sketch::SketchPose;
 use crate::sketch::raycast::SketchRaycaster;
@@ -75,6 +79,19 @@ pub struct MclConfig {
     /// Log-weight added to a particle standing in a wall (−8); three times it outside the
     /// image.
     pub wall_log_penalty: f64,
+    /// How a scan weighs a particle ([`ObservationModel`]): the drawing's likelihood field
+    /// (default) or the paper's ray-traced eq. (3).
+    #[serde(default)]
+    pub observation: ObservationModel,
+    /// Likelihood field: weight of the floor for a return seen through a drawn wall
+    /// (0.02: one beam in fifty passes a door drawn closed or a gap between strokes), against
+    /// `z_rand` for one that stops short in the drawing's free space.
+    #[serde(default = "default_z_seen_through")]
+    pub z_seen_through: f64,
+}
+
+fn default_z_seen_through() -> f64 {
+    0.02
 }
 
 impl Default for MclConfig {
@@ -100,6 +117,8 @@ impl Default for MclConfig {
             resample_ess_fraction: 0.5,
             wall_clearance_px: 1.0,
             wall_log_penalty: -8.0,
+            observation: ObservationModel::default(),
+            z_seen_through: default_z_seen_through(),
         }
     }
 }
@@ -150,6 +169,12 @@ impl MclConfig {
         }
         if self.z_rand <= 0.0 {
             return bad("z_rand", "must be > 0 (robust floor)");
+        }
+        if !(self.z_seen_through.is_finite() && self.z_seen_through > 0.0) {
+            return bad(
+                "z_seen_through",
+                "must be a finite number > 0 (robust floor)",
+            );
         }
         if !(self.fallback_range_max_m.is_finite() && self.fallback_range_max_m > 0.0) {
             return bad("fallback_range_max_m", "must be a finite number > 0");
@@ -292,8 +317,10 @@ impl SketchMcl {
     }
 
     /// Localization score of the estimate after the last update, 0..1: the mean over the
-    /// used returned beams of `exp(−(r_i − s·l_i)² / (2σ(r_i)²))` at the estimate (a beam
-    /// whose ray hits no line scores 0). ≈ 1 when the scan matches the drawing, → 0 when
+    /// used returned beams of the observation model's agreement at the estimate
+    /// ([`ObservationModel::agreement`]: `exp(−(r_i − s·l_i)² / (2σ(r_i)²))` with eq. (3),
+    /// `exp(−d_i² / (2σ(r_i)²))` with the likelihood field; a beam the drawing does not
+    /// explain scores 0), so each model judges its own estimate. ≈ 1 when the scan matches the drawing, → 0 when
     /// the estimate is lost. 0 before the first update.
     pub fn score(&self) -> f64 {
         self.score
@@ -389,13 +416,14 @@ impl SketchMcl {
         }
     }
 
-    /// Measurement update, eq. (3): for each particle `(u, v, θ, s)` and each used beam `i`
-    /// (an evenly spaced subset of `beams_used` beams; no-returns skipped) the pseudo-range
-    /// `l_i` (pixels) is ray-traced on the sketch from `(u, v)` at `θ + α_i`, and
+    /// Measurement update: for each particle `(u, v, θ, s)` and each used beam `i` (an
+    /// evenly spaced subset of `beams_used` beams; no-returns skipped), `p(r_i | x)` by the
+    /// configured [`ObservationModel`] — the paper's eq. (3),
     ///
     /// `p(r_i | x) = z_hit · N(r_i; s·l_i, σ(r_i)²) + z_rand / r_max`
     ///
-    /// (a ray that hits no line within `r_max / s` keeps only the uniform floor). The
+    /// with `l_i` ray-traced on the sketch from `(u, v)` at `θ + α_i`, or the likelihood
+    /// field at the beam's end. The
     /// particle's log weight grows by `γ · Σ_i ln p(r_i | x)` (γ = `likelihood_exponent`),
     /// plus `wall_log_penalty` when it stands within `wall_clearance_px` of a line, or
     /// 3 × `wall_log_penalty` (and only floors) when it is outside the image.
@@ -417,41 +445,27 @@ impl SketchMcl {
         let c = &self.config;
         let range_max_m = scan.range_max_m_or(c.fallback_range_max_m);
         let floor = c.z_rand / range_max_m;
-        let beam_data: Vec<(f64, f64, f64)> = beams
+        let beam_data: Vec<Beam> = beams
             .iter()
-            .map(|&i| {
-                let r = scan.ranges_m[i] as f64;
-                let sigma = c.sigma_at_m(r);
-                (scan.beam_angle_rad(i), r, sigma)
-            })
+            .map(|&i| Beam::new(scan.beam_angle_rad(i), scan.ranges_m[i] as f64, c))
             .collect();
-        let norm = |sigma: f64| c.z_hit / (sigma * (std::f64::consts::TAU).sqrt());
         let mut log_w: Vec<f64> = Vec::with_capacity(self.particles.len());
         for p in &self.particles {
             let pose = &p.pose;
-            let s = pose.meters_per_pixel;
-            let mut ll = 0.0;
-            let mut penalty = 0.0;
-            if !raycaster.contains(pose.u_px, pose.v_px) {
-                penalty = 3.0 * c.wall_log_penalty;
-                ll = beam_data.len() as f64 * floor.ln();
+            let (ll, penalty) = if !raycaster.contains(pose.u_px, pose.v_px) {
+                (
+                    beam_data.len() as f64 * floor.ln(),
+                    3.0 * c.wall_log_penalty,
+                )
             } else {
-                if raycaster.distance_to_wall_px(pose.u_px, pose.v_px) < c.wall_clearance_px {
-                    penalty = c.wall_log_penalty;
-                }
-                let max_px = range_max_m / s;
-                for &(alpha, r, sigma) in &beam_data {
-                    let angle = pose.heading_rad + alpha;
-                    let lik = match raycaster.cast(pose.u_px, pose.v_px, angle, max_px) {
-                        Some(hit) => {
-                            let e = (r - s * hit.range_px) / sigma;
-                            norm(sigma) * (-0.5 * e * e).exp() + floor
-                        }
-                        None => floor,
-                    };
-                    ll += lik.ln();
-                }
-            }
+                let in_wall =
+                    raycaster.distance_to_wall_px(pose.u_px, pose.v_px) < c.wall_clearance_px;
+                (
+                    c.observation
+                        .log_likelihood(pose, &beam_data, raycaster, c, range_max_m),
+                    if in_wall { c.wall_log_penalty } else { 0.0 },
+                )
+            };
             log_w.push(p.weight.max(1e-300).ln() + c.likelihood_exponent * ll + penalty);
         }
         let max_lw = log_w.iter().copied().fold(f64::NEG_INFINITY, f64::max);
@@ -544,8 +558,9 @@ impl SketchMcl {
     }
 }
 
-/// Mean per-beam agreement `exp(−(r − s·l)² / (2σ²))` of `pose` over `beams`; 0 when
-/// `beams` is empty or the pose is outside the image.
+/// Mean per-beam agreement of `pose` with `scan` over `beams`, by the configured
+/// observation model ([`ObservationModel::agreement`]); 0 when `beams` is empty or the pose
+/// is outside the image.
 fn pose_score(
     pose: &SketchPose,
     scan: &Scan,
@@ -557,28 +572,14 @@ fn pose_score(
     {
         return 0.0;
     }
-    let s = pose.meters_per_pixel;
-    let max_px = scan.range_max_m_or(config.fallback_range_max_m) / s;
-    let sum: f64 = beams
+    let beams: Vec<Beam> = beams
         .iter()
-        .map(|&i| {
-            let r = scan.ranges_m[i] as f64;
-            let sigma = config.sigma_at_m(r);
-            match raycaster.cast(
-                pose.u_px,
-                pose.v_px,
-                pose.heading_rad + scan.beam_angle_rad(i),
-                max_px,
-            ) {
-                Some(hit) => {
-                    let e = (r - s * hit.range_px) / sigma;
-                    (-0.5 * e * e).exp()
-                }
-                None => 0.0,
-            }
-        })
-        .sum();
-    sum / beams.len() as f64
+        .map(|&i| Beam::new(scan.beam_angle_rad(i), scan.ranges_m[i] as f64, config))
+        .collect();
+    let range_max_m = scan.range_max_m_or(config.fallback_range_max_m);
+    config
+        .observation
+        .agreement(pose, &beams, raycaster, range_max_m)
 }
 
 /// Indices of up to `count` beams evenly spaced over the scan (`⌊(k + ½)·n / count⌋`),
