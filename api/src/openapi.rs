@@ -14,10 +14,11 @@ use crate::registration::{
     SketchInMapResponse, SketchLineInMap, TransformRequest, TransformResponse, WarpInfo,
 };
 use crate::types::{
-    CreateSessionRequest, HealthResponse, LidarMount, MappingMethod, PixelPoint, PoseResponse,
-    SessionEvent, SessionInfo, SessionList, SessionState, SketchInfo, SketchLineInfo, SketchList,
-    SketchPoseInfo, SketchPoseSource, SketchStart, SketchSummary, SketchTrajectoryPointInfo,
-    SketchTrajectoryResponse, StopReason, TrajectoryPointInfo, TrajectoryResponse,
+    CreateSessionRequest, DrawingObservationModel, HealthResponse, LidarMount, MappingMethod,
+    PixelPoint, PoseResponse, SessionEvent, SessionInfo, SessionList, SessionState, SketchInfo,
+    SketchLineInfo, SketchList, SketchPoseInfo, SketchPoseSource, SketchStart, SketchSummary,
+    SketchTrajectoryPointInfo, SketchTrajectoryResponse, StopReason, TrajectoryPointInfo,
+    TrajectoryResponse,
 };
 use crate::{registration_routes, router};
 
@@ -67,7 +68,7 @@ use crate::{registration_routes, router};
         OccupancyGridResponse, MapMetaData, RosHeader, RosTime, RosPose, RosPoint, RosQuaternion,
         PixelPoint, PoseResponse, SessionEvent, SessionInfo,
         SessionList, SessionState, StopReason, SketchInfo, SketchLineInfo, SketchList,
-        SketchPoseInfo, SketchPoseSource, LidarMount,
+        SketchPoseInfo, SketchPoseSource, LidarMount, DrawingObservationModel,
         SketchStart, SketchSummary, SketchTrajectoryPointInfo, SketchTrajectoryResponse,
         TrajectoryPointInfo, TrajectoryResponse, RegistrationInfo, WarpInfo, SketchInMapResponse,
         SketchLineInMap, TransformRequest, TransformResponse, DrawingPointIn, DrawingPointOut,

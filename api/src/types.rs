@@ -223,6 +223,21 @@ pub struct CreateSessionRequest {
     /// Where the LiDAR sits on the robot; default: at the centre, facing forward.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lidar_mount: Option<LidarMount>,
+    /// For `sketch`: how MCL on the drawing weighs a scan; default `likelihood_field`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mcl_observation: Option<DrawingObservationModel>,
+}
+
+/// How MCL on the drawing weighs a scan against the drawn walls (`sketch` sessions).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum DrawingObservationModel {
+    /// The drawing's distance field at each beam's end: tolerant of returns short of a
+    /// drawn wall (furniture, people), strict about returns seen through one (the
+    /// default; a fifth of the paper's cost).
+    LikelihoodField,
+    /// The paper's eq. (3): each beam's range against the range ray-traced on the drawing.
+    RayCast,
 }
 
 fn check_finite(field: &str, value: f64) -> Result<(), ApiError> {
@@ -412,6 +427,9 @@ pub struct SessionInfo {
     /// centre).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lidar_mount: Option<LidarMount>,
+    /// `sketch` sessions: how MCL on the drawing weighs a scan (absent for the others).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mcl_observation: Option<DrawingObservationModel>,
     /// When the running session was last written to disk (its checkpoint: what a crash
     /// would leave), milliseconds since the Unix epoch; absent before the first.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -56,6 +56,7 @@ async fn client_covers_every_endpoint() {
         meters_per_pixel: Some(0.1),
         seed: None,
         lidar_mount: None,
+        mcl_observation: None,
     };
     let session = c.create_session(&request).await.unwrap();
     assert_eq!(session.state, SessionState::WaitingForData);

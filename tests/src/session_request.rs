@@ -31,6 +31,7 @@ pub fn sketch_session(
         meters_per_pixel: Some(cfg.meters_per_pixel),
         seed,
         lidar_mount: None,
+        mcl_observation: None,
     }
 }
 
@@ -48,5 +49,6 @@ pub fn baseline_session(
         meters_per_pixel: None,
         seed,
         lidar_mount: None,
+        mcl_observation: None,
     }
 }

@@ -187,6 +187,7 @@ async fn run(data: &std::path::Path) -> Result<()> {
             meters_per_pixel: None,
             seed: Some(1),
             lidar_mount: None,
+            mcl_observation: None,
         })
         .await?;
     let p = prefix.clone();

@@ -67,6 +67,7 @@ async fn run(data: &std::path::Path) -> Result<()> {
             meters_per_pixel: None,
             seed: None,
             lidar_mount: None,
+            mcl_observation: None,
         })
         .await?;
 

@@ -195,6 +195,7 @@ impl Backend for Fake {
             stop_reason: None,
             lidar_mount: r.lidar_mount,
             checkpoint_unix_ms: None,
+            mcl_observation: r.mcl_observation,
         };
         sessions.insert(info.id.clone(), info.clone());
         self.events

@@ -11,10 +11,10 @@ use std::sync::{Arc, Mutex};
 
 use axum::body::Bytes;
 use sketchslam_api::{
-    ApiError, Backend, CreateSessionRequest, EventSubscription, MapFrame, MappingMethod,
-    OccupancyGridResponse, PoseResponse, RegistrationInfo, SessionInfo, SessionState,
-    SketchInMapResponse, SketchInfo, SketchSummary, SketchTrajectoryResponse, SketchUpload,
-    StopReason, TaggedPng, TrajectoryResponse, TransformRequest, TransformResponse,
+    ApiError, Backend, CreateSessionRequest, DrawingObservationModel, EventSubscription, MapFrame,
+    MappingMethod, OccupancyGridResponse, PoseResponse, RegistrationInfo, SessionInfo,
+    SessionState, SketchInMapResponse, SketchInfo, SketchSummary, SketchTrajectoryResponse,
+    SketchUpload, StopReason, TaggedPng, TrajectoryResponse, TransformRequest, TransformResponse,
 };
 use sketchslam_ipc::IpcConfig;
 
@@ -30,6 +30,7 @@ use super::sketch_store::SketchStore;
 use super::storage::{SessionMeta, Storage};
 use super::vda5050::StartedSession;
 use sketchslam_engine::EngineError;
+use sketchslam_engine::localization::observation_model::ObservationModel;
 use sketchslam_engine::mapper::{Mapper, SketchPrior};
 use sketchslam_engine::sketch::SketchPose;
 use tokio::sync::mpsc;
@@ -314,6 +315,17 @@ impl Registry {
         if let Some(m) = request.lidar_mount {
             mapper_config.lidar_mount = m.pose();
         }
+        let mcl_observation = (request.method == MappingMethod::Sketch).then(|| {
+            request
+                .mcl_observation
+                .unwrap_or(DrawingObservationModel::LikelihoodField)
+        });
+        if let Some(model) = mcl_observation {
+            mapper_config.mcl.observation = match model {
+                DrawingObservationModel::LikelihoodField => ObservationModel::LikelihoodField,
+                DrawingObservationModel::RayCast => ObservationModel::RayCast,
+            };
+        }
         let mapper = Mapper::new(method, prior, mapper_config).map_err(|e| match e {
             EngineError::InvalidParameter { name, reason } => {
                 ApiError::invalid("invalid_parameter", format!("{name}: {reason}"))
@@ -341,6 +353,7 @@ impl Registry {
             stopped_unix_ms: None,
             stop_reason: None,
             lidar_mount: request.lidar_mount,
+            mcl_observation,
             checkpoint_unix_ms: None,
         };
         Session::start(info, mapper, self.ipc.clone(), self.histogram.clone())

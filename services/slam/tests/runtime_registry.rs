@@ -72,6 +72,7 @@ fn sketch_start(sketch_id: &str, u: f64, v: f64) -> CreateSessionRequest {
         meters_per_pixel: Some(0.1),
         seed: None,
         lidar_mount: None,
+        mcl_observation: None,
     }
 }
 
@@ -409,6 +410,7 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
             meters_per_pixel: Some(0.1),
             seed: None,
             lidar_mount: None,
+            mcl_observation: None,
         })
         .unwrap();
     let baseline = reg
@@ -420,8 +422,16 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
             meters_per_pixel: None,
             seed: None,
             lidar_mount: None,
+            mcl_observation: None,
         })
         .unwrap();
+    // The sketch session says which observation model its MCL weighs scans with (the
+    // default, not asked for); a session without a drawing has none.
+    assert_eq!(
+        session.mcl_observation,
+        Some(sketchslam_api::DrawingObservationModel::LikelihoodField)
+    );
+    assert_eq!(baseline.mcl_observation, None);
     let id = session.id.clone();
     let ipc = IpcConfig::new(&prefix).unwrap();
     publish_until_processed(&reg, &ipc, "drawn", &id, (0, 20, 0.0), 20);
@@ -487,6 +497,7 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
             meters_per_pixel: None,
             seed: None,
             lidar_mount: None,
+            mcl_observation: None,
         })
         .unwrap();
     let id = session.id.clone();
@@ -614,6 +625,7 @@ fn fleets_run_side_by_side_within_the_limit() {
         meters_per_pixel: None,
         seed: None,
         lidar_mount: None,
+        mcl_observation: None,
     };
     let ids: Vec<String> = (0..4)
         .map(|i| reg.create_session(req(&format!("r{i}"))).unwrap().id)
