@@ -202,6 +202,8 @@ pub fn score_dataset_artifacts(
         warp_held: None,
         live_sketch_pose_median_m: None,
         live_sketch_pose_within_1m: None,
+        mcl_pose_median_m: None,
+        mcl_pose_within_1m: None,
         sketch_pose_p95_m: None,
         sketch_pose_within_1m: None,
         sketch_heading_median_deg: None,

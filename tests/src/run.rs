@@ -134,6 +134,14 @@ pub struct RunResult {
     /// Share of those poses within 1 m-equivalent of the truth.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub live_sketch_pose_within_1m: Option<f64>,
+    /// In-process `sketch` runs on a scenario with `sketch-truth.toml`: median error of
+    /// MCL's own estimate on the drawing after each scan (the localization model alone,
+    /// `MclConfig::observation`), meters at the nominal scale.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mcl_pose_median_m: Option<f64>,
+    /// Share of those estimates within 1 m-equivalent of the truth.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mcl_pose_within_1m: Option<f64>,
     /// `sketch` runs: the share of the served trajectory on the drawing where mapped walls
     /// hold W (source `warp`), scenarios and datasets alike.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -268,6 +276,12 @@ pub fn run_in_process_as(
             result.live_sketch_pose_median_m = Some(score.median_m);
             result.live_sketch_pose_within_1m = Some(score.within_1m);
         }
+        if let Some(score) =
+            score_published_poses(&scenario.dir, &cfg.name, &run.truth, &run.mcl_poses)?
+        {
+            result.mcl_pose_median_m = Some(score.median_m);
+            result.mcl_pose_within_1m = Some(score.within_1m);
+        }
     }
     Ok(result)
 }
@@ -353,6 +367,8 @@ pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
         warp_held: None,
         live_sketch_pose_median_m: None,
         live_sketch_pose_within_1m: None,
+        mcl_pose_median_m: None,
+        mcl_pose_within_1m: None,
         out_dir: out_dir.to_path_buf(),
     })
 }

@@ -51,6 +51,10 @@ pub struct InProcessRun {
     pub live_sketch_poses: Vec<(f64, SketchPose)>,
     /// `sketch` runs with `RunMethod::keep_live_warps`: every live fit ([`LiveWarp`]).
     pub live_fits: Vec<LiveFit>,
+    /// `sketch` runs: MCL's own estimate on the drawing after each scan
+    /// ([`Mapper::drawing_trajectory`]), stamp in seconds: the localization model alone,
+    /// before W takes over what is served.
+    pub mcl_poses: Vec<(f64, SketchPose)>,
 }
 
 /// Maps `steps` (a stream of `scan_count` scans) with `method` (and, for `sketch`, the
@@ -84,8 +88,8 @@ pub fn map_in_process(
     let mut scan_ms: Vec<f64> = Vec::new();
     // Each scan's pose as the session publishes it then, before later closures move it.
     let mut live: Vec<TrajectoryPoint> = Vec::new();
-    let mut live_warp =
-        (method == Method::Sketch).then(|| LiveWarp::new(run_method.keep_live_warps));
+    let mut live_warp = (method == Method::Sketch && run_method.live_warp)
+        .then(|| LiveWarp::new(run_method.keep_live_warps));
     let mut live_sketch_poses = Vec::new();
     for step in steps {
         // The truth does not depend on the mapper: recorded before it runs, outside the
@@ -132,6 +136,11 @@ pub fn map_in_process(
     let mut sketch_poses = Vec::new();
     let mut warp_poses = Vec::new();
     let mut warp_held = None;
+    let mcl_poses = mapper
+        .drawing_trajectory()
+        .iter()
+        .map(|p| (p.stamp_ns as f64 * 1e-9, p.pose))
+        .collect();
     if method == Method::Sketch {
         write_drawing_trajectory(out_dir, LIVE_SKETCH_TRAJECTORY_FILE, &live_sketch_poses)?;
         // The whole trajectory on the drawing, through the service's own codec, so the file
@@ -171,6 +180,7 @@ pub fn map_in_process(
         warp_held,
         live_sketch_poses,
         live_fits: live_warp.map(LiveWarp::kept).unwrap_or_default(),
+        mcl_poses,
     })
 }
 

@@ -2,6 +2,8 @@
 //! of leaving them open (`graph-open`: the same front end with no back end), so a table can
 //! show what closing loops adds — or costs.
 
+use sketchslam_engine::localization::mcl::MclConfig;
+use sketchslam_engine::localization::observation_model::ObservationModel;
 use sketchslam_engine::mapper::{MapperConfig, Method};
 use sketchslam_types::Pose2;
 use std::fmt;
@@ -26,6 +28,13 @@ pub struct RunMethod {
     /// `sketch` runs in-process: keep each live fit of W with the map of its moment
     /// (`crate::live_warp::write_live_fits`), for `bench-warp`. False by default.
     pub keep_live_warps: bool,
+    /// `sketch` runs in-process: replay the service's warp worker to score the live pose
+    /// on the drawing (`crate::live_warp`; a fit every 10 keyframes, most of a generated
+    /// world's run time). True by default.
+    pub live_warp: bool,
+    /// `sketch` runs: how MCL on the drawing weighs a scan (`MclConfig::observation`; the
+    /// engine's default unless asked).
+    pub mcl_observation: ObservationModel,
 }
 
 impl From<Method> for RunMethod {
@@ -36,6 +45,8 @@ impl From<Method> for RunMethod {
             lidar_mount: Pose2::IDENTITY,
             frame_turn_rad: 0.0,
             keep_live_warps: false,
+            live_warp: true,
+            mcl_observation: ObservationModel::default(),
         }
     }
 }
@@ -46,6 +57,10 @@ impl RunMethod {
         let defaults = MapperConfig::default();
         MapperConfig {
             seed,
+            mcl: MclConfig {
+                observation: self.mcl_observation,
+                ..defaults.mcl.clone()
+            },
             loop_closure: defaults.loop_closure.filter(|_| self.loop_closure),
             lidar_mount: self.lidar_mount,
             frame_turn_rad: self.frame_turn_rad,
@@ -83,6 +98,8 @@ impl FromStr for RunMethod {
             lidar_mount: Pose2::IDENTITY,
             frame_turn_rad: 0.0,
             keep_live_warps: false,
+            live_warp: true,
+            mcl_observation: ObservationModel::default(),
         })
     }
 }

@@ -31,6 +31,7 @@
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
+use sketchslam_engine::localization::observation_model::ObservationModel;
 use sketchslam_engine::mapper::Method;
 use sketchslam_simulator::dataset::{DATASET_FILE, Dataset};
 use sketchslam_simulator::generate::{Kind, LidarGrade, generate};
@@ -110,6 +111,20 @@ struct Args {
     /// `bench-warp` to fit the partial maps again.
     #[arg(long)]
     keep_live_warps: bool,
+    /// `sketch` runs (in-process only): MCL's observation model on the drawing,
+    /// `likelihood_field` (the default) or `ray_cast` (the paper's eq. 3).
+    #[arg(long, value_parser = parse_observation)]
+    mcl_observation: Option<ObservationModel>,
+    /// `sketch` runs (in-process): do not replay the service's warp worker (no `live drw`
+    /// columns): a fit every 10 keyframes is most of a generated world's run time, and a
+    /// sweep of MCL or of the map does not need it.
+    #[arg(long)]
+    no_live_warp: bool,
+}
+
+fn parse_observation(s: &str) -> Result<ObservationModel, String> {
+    serde_json::from_value(serde_json::Value::String(s.to_string()))
+        .map_err(|_| format!("{s:?}: likelihood_field or ray_cast"))
 }
 
 /// One run of the plan.
@@ -129,6 +144,22 @@ fn main() -> Result<()> {
         }
         for m in &mut methods {
             m.frame_turn_rad = args.frame_turn_deg.to_radians();
+        }
+    }
+    if args.no_live_warp {
+        if args.keep_live_warps {
+            bail!("--no-live-warp and --keep-live-warps: choose one");
+        }
+        for m in &mut methods {
+            m.live_warp = false;
+        }
+    }
+    if let Some(model) = args.mcl_observation {
+        if !in_process {
+            bail!("--mcl-observation: in-process only (add --in-process)");
+        }
+        for m in &mut methods {
+            m.mcl_observation = model;
         }
     }
     if args.keep_live_warps {
@@ -531,7 +562,7 @@ fn print_relations(results: &[RunResult], floors: &[(String, ReplayFloors)]) {
 
 fn print_table(results: &[RunResult]) {
     println!(
-        "{:<12} {:<9} {:<8} {:>7} {:>8} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>7} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5} {:>6} {:>8} {:>7}",
+        "{:<12} {:<9} {:<8} {:>7} {:>8} {:>9} {:>7} {:>6} {:>7} {:>7} {:>8} {:>8} {:>6} {:>7} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5} {:>6} {:>8} {:>7} {:>7} {:>6}",
         "scenario",
         "method",
         "sketch",
@@ -555,12 +586,14 @@ fn print_table(results: &[RunResult]) {
         "W≤1m",
         "W held",
         "live drw",
-        "ldrw≤1m"
+        "ldrw≤1m",
+        "MCL med",
+        "MCL≤1m"
     );
     let opt = |v: Option<f64>, prec: usize| v.map_or("-".to_string(), |v| format!("{v:.prec$}"));
     for r in results {
         println!(
-            "{:<12} {:<9} {:<8} {} {:>8} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>7} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5} {:>6} {:>8} {:>7}",
+            "{:<12} {:<9} {:<8} {} {:>8} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>7} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5} {:>6} {:>8} {:>7} {:>7} {:>6}",
             r.scenario,
             r.method,
             r.sketch.as_deref().unwrap_or("-"),
@@ -584,7 +617,9 @@ fn print_table(results: &[RunResult]) {
             opt(r.warp_pose_within_1m.map(|w| 100.0 * w), 0),
             opt(r.warp_held.map(|w| 100.0 * w), 0),
             opt(r.live_sketch_pose_median_m, 2),
-            opt(r.live_sketch_pose_within_1m.map(|w| 100.0 * w), 0)
+            opt(r.live_sketch_pose_within_1m.map(|w| 100.0 * w), 0),
+            opt(r.mcl_pose_median_m, 2),
+            opt(r.mcl_pose_within_1m.map(|w| 100.0 * w), 0)
         );
     }
     if let Some(r) = results.first() {
@@ -613,7 +648,8 @@ fn print_table(results: &[RunResult]) {
              live drw, ldrw≤1m: the same as drw for each scan's pose on the drawing as the \
              session first published it, through the warp it held then (through the processes: \
              the event stream, the service's warp worker; in-process: W refitted at the scan the \
-             map grew by the worker's 10 keyframes)"
+             map grew by the worker's 10 keyframes); MCL med, MCL≤1m: the same for MCL's own \
+             estimate after each scan (in-process), the localization model alone"
         );
     }
     if results.iter().any(|r| r.scan_ms_mean.is_some()) {
