@@ -223,7 +223,7 @@ pub struct CreateSessionRequest {
     /// Where the LiDAR sits on the robot; default: at the centre, facing forward.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lidar_mount: Option<LidarMount>,
-    /// For `sketch`: how MCL on the drawing weighs a scan; default `likelihood_field`.
+    /// For `sketch`: how MCL on the drawing weighs a scan; default `ray_cast`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mcl_observation: Option<DrawingObservationModel>,
 }
@@ -233,10 +233,11 @@ pub struct CreateSessionRequest {
 #[serde(rename_all = "snake_case")]
 pub enum DrawingObservationModel {
     /// The drawing's distance field at each beam's end: tolerant of returns short of a
-    /// drawn wall (furniture, people), strict about returns seen through one (the
-    /// default; a fifth of the paper's cost).
+    /// drawn wall (furniture, people), strict about returns seen through one (a fifth of
+    /// the paper's cost).
     LikelihoodField,
-    /// The paper's eq. (3): each beam's range against the range ray-traced on the drawing.
+    /// The paper's eq. (3): each beam's range against the range ray-traced on the drawing
+    /// (the default).
     RayCast,
 }
 

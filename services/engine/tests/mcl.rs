@@ -12,6 +12,7 @@ use sketchslam_engine::localization::line_observation::{
     LineObservationConfig, observe_lines, observed_indices,
 };
 use sketchslam_engine::localization::mcl::{MclConfig, Particle, SketchMcl, StartSpread};
+use sketchslam_engine::localization::observation_model::ObservationModel;
 use sketchslam_engine::localization::recovery::{
     Failure, FailureConfig, FailureDetector, ObservationPoints, RecoveryConfig, recover_mcl,
 };
@@ -217,7 +218,7 @@ struct Run {
     mean_scale_err_last: f64,
 }
 
-fn run_loop(seed: u64, scale_guess: f64) -> Run {
+fn run_loop(seed: u64, scale_guess: f64, observation: ObservationModel) -> Run {
     let sketch = corridor_loop();
     let rc = SketchRaycaster::new(&sketch);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -243,7 +244,10 @@ fn run_loop(seed: u64, scale_guess: f64) -> Run {
         meters_per_pixel: scale_guess,
     };
     let mut mcl = SketchMcl::new(
-        MclConfig::default(),
+        MclConfig {
+            observation,
+            ..MclConfig::default()
+        },
         marked,
         StartSpread::default(),
         &mut rng,
@@ -281,10 +285,16 @@ fn run_loop(seed: u64, scale_guess: f64) -> Run {
 
 #[test]
 fn mcl_follows_the_truth_and_finds_the_scale() {
-    for (seed, guess) in [(7u64, MPP * 1.2), (8, MPP * 0.8)] {
-        let r = run_loop(seed, guess);
+    // Both observation models: the paper's eq. (3) and the drawing's likelihood field.
+    for (seed, guess, model) in [
+        (7u64, MPP * 1.2, ObservationModel::RayCast),
+        (8, MPP * 0.8, ObservationModel::RayCast),
+        (7, MPP * 1.2, ObservationModel::LikelihoodField),
+        (8, MPP * 0.8, ObservationModel::LikelihoodField),
+    ] {
+        let r = run_loop(seed, guess, model);
         println!(
-            "seed {seed} guess {guess:.3}: max err 2nd half {:.3} m, final err {:.3} m, \
+            "{model:?} seed {seed} guess {guess:.3}: max err 2nd half {:.3} m, final err {:.3} m, \
              final scale err {:.2} %, mean scale err last 50 updates {:.2} %",
             r.max_err_second_half_m,
             r.final_err_m,

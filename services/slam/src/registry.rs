@@ -315,17 +315,20 @@ impl Registry {
         if let Some(m) = request.lidar_mount {
             mapper_config.lidar_mount = m.pose();
         }
-        let mcl_observation = (request.method == MappingMethod::Sketch).then(|| {
-            request
-                .mcl_observation
-                .unwrap_or(DrawingObservationModel::LikelihoodField)
-        });
-        if let Some(model) = mcl_observation {
+        if let Some(model) = request.mcl_observation {
             mapper_config.mcl.observation = match model {
                 DrawingObservationModel::LikelihoodField => ObservationModel::LikelihoodField,
                 DrawingObservationModel::RayCast => ObservationModel::RayCast,
             };
         }
+        // What the session runs, asked for or the service's default (sketch sessions only).
+        let mcl_observation =
+            (request.method == MappingMethod::Sketch).then(|| {
+                match mapper_config.mcl.observation {
+                    ObservationModel::LikelihoodField => DrawingObservationModel::LikelihoodField,
+                    ObservationModel::RayCast => DrawingObservationModel::RayCast,
+                }
+            });
         let mapper = Mapper::new(method, prior, mapper_config).map_err(|e| match e {
             EngineError::InvalidParameter { name, reason } => {
                 ApiError::invalid("invalid_parameter", format!("{name}: {reason}"))

@@ -429,7 +429,7 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
     // default, not asked for); a session without a drawing has none.
     assert_eq!(
         session.mcl_observation,
-        Some(sketchslam_api::DrawingObservationModel::LikelihoodField)
+        Some(sketchslam_api::DrawingObservationModel::RayCast)
     );
     assert_eq!(baseline.mcl_observation, None);
     let id = session.id.clone();

@@ -112,7 +112,7 @@ struct Args {
     #[arg(long)]
     keep_live_warps: bool,
     /// `sketch` runs (in-process only): MCL's observation model on the drawing,
-    /// `likelihood_field` (the default) or `ray_cast` (the paper's eq. 3).
+    /// `ray_cast` (the paper's eq. 3, the default) or `likelihood_field`.
     #[arg(long, value_parser = parse_observation)]
     mcl_observation: Option<ObservationModel>,
     /// `sketch` runs (in-process): do not replay the service's warp worker (no `live drw`

@@ -79,8 +79,8 @@ pub struct MclConfig {
     /// Log-weight added to a particle standing in a wall (−8); three times it outside the
     /// image.
     pub wall_log_penalty: f64,
-    /// How a scan weighs a particle ([`ObservationModel`]): the drawing's likelihood field
-    /// (default) or the paper's ray-traced eq. (3).
+    /// How a scan weighs a particle ([`ObservationModel`]): the paper's ray-traced eq. (3)
+    /// (default) or the drawing's likelihood field.
     #[serde(default)]
     pub observation: ObservationModel,
     /// Likelihood field: weight of the floor for a return seen through a drawn wall
