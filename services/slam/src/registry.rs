@@ -322,13 +322,11 @@ impl Registry {
             };
         }
         // What the session runs, asked for or the service's default (sketch sessions only).
-        let mcl_observation =
-            (request.method == MappingMethod::Sketch).then(|| {
-                match mapper_config.mcl.observation {
-                    ObservationModel::LikelihoodField => DrawingObservationModel::LikelihoodField,
-                    ObservationModel::RayCast => DrawingObservationModel::RayCast,
-                }
-            });
+        let running = match mapper_config.mcl.observation {
+            ObservationModel::LikelihoodField => DrawingObservationModel::LikelihoodField,
+            ObservationModel::RayCast => DrawingObservationModel::RayCast,
+        };
+        let mcl_observation = (request.method == MappingMethod::Sketch).then_some(running);
         let mapper = Mapper::new(method, prior, mapper_config).map_err(|e| match e {
             EngineError::InvalidParameter { name, reason } => {
                 ApiError::invalid("invalid_parameter", format!("{name}: {reason}"))
