@@ -136,12 +136,13 @@ pub fn map_in_process(
     let mut sketch_poses = Vec::new();
     let mut warp_poses = Vec::new();
     let mut warp_held = None;
-    let mcl_poses = mapper
-        .drawing_trajectory()
-        .iter()
-        .map(|p| (p.stamp_ns as f64 * 1e-9, p.pose))
-        .collect();
+    let mut mcl_poses = Vec::new();
     if method == Method::Sketch {
+        mcl_poses = mapper
+            .drawing_trajectory()
+            .iter()
+            .map(|p| (p.stamp_ns as f64 * 1e-9, p.pose))
+            .collect();
         write_drawing_trajectory(out_dir, LIVE_SKETCH_TRAJECTORY_FILE, &live_sketch_poses)?;
         // The whole trajectory on the drawing, through the service's own codec, so the file
         // is what `?frame=sketch&format=csv` serves once the session stopped: the final

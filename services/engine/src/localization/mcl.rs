@@ -433,8 +433,8 @@ impl SketchMcl {
     ///
     /// A scan without any usable return changes nothing (`beams == 0`).
     pub fn update(&mut self, scan: &Scan, raycaster: &SketchRaycaster) -> UpdateOutcome {
-        let beams = used_beams(scan, self.config.beams_used);
-        if beams.is_empty() {
+        let beam_data = beam_data(scan, &self.config);
+        if beam_data.is_empty() {
             return UpdateOutcome {
                 beams: 0,
                 ess: self.effective_sample_size(),
@@ -445,10 +445,6 @@ impl SketchMcl {
         let c = &self.config;
         let range_max_m = scan.range_max_m_or(c.fallback_range_max_m);
         let floor = c.z_rand / range_max_m;
-        let beam_data: Vec<Beam> = beams
-            .iter()
-            .map(|&i| Beam::new(scan.beam_angle_rad(i), scan.ranges_m[i] as f64, c))
-            .collect();
         let mut log_w: Vec<f64> = Vec::with_capacity(self.particles.len());
         for p in &self.particles {
             let pose = &p.pose;
@@ -492,9 +488,9 @@ impl SketchMcl {
             self.resample();
         }
         let est = self.estimate();
-        self.score = pose_score(&est, scan, raycaster, &beams, &self.config);
+        self.score = pose_score(&est, &beam_data, raycaster, range_max_m, &self.config);
         UpdateOutcome {
-            beams: beams.len(),
+            beams: beam_data.len(),
             ess,
             resampled,
             score: self.score,
@@ -553,33 +549,42 @@ impl SketchMcl {
     /// The score (as [`SketchMcl::score`]) of any pose against `scan`, using this
     /// configuration's beam subset and σ(r). `beams_used` casts.
     pub fn score_pose(&self, pose: &SketchPose, scan: &Scan, raycaster: &SketchRaycaster) -> f64 {
-        let beams = used_beams(scan, self.config.beams_used);
-        pose_score(pose, scan, raycaster, &beams, &self.config)
+        let range_max_m = scan.range_max_m_or(self.config.fallback_range_max_m);
+        pose_score(
+            pose,
+            &beam_data(scan, &self.config),
+            raycaster,
+            range_max_m,
+            &self.config,
+        )
     }
 }
 
-/// Mean per-beam agreement of `pose` with `scan` over `beams`, by the configured
+/// Mean per-beam agreement of `pose` with the scan's used `beams`, by the configured
 /// observation model ([`ObservationModel::agreement`]); 0 when `beams` is empty or the pose
 /// is outside the image.
 fn pose_score(
     pose: &SketchPose,
-    scan: &Scan,
+    beams: &[Beam],
     raycaster: &SketchRaycaster,
-    beams: &[usize],
+    range_max_m: f64,
     config: &MclConfig,
 ) -> f64 {
     if beams.is_empty() || validate_pose(pose).is_err() || !raycaster.contains(pose.u_px, pose.v_px)
     {
         return 0.0;
     }
-    let beams: Vec<Beam> = beams
-        .iter()
-        .map(|&i| Beam::new(scan.beam_angle_rad(i), scan.ranges_m[i] as f64, config))
-        .collect();
-    let range_max_m = scan.range_max_m_or(config.fallback_range_max_m);
     config
         .observation
-        .agreement(pose, &beams, raycaster, range_max_m)
+        .agreement(pose, beams, raycaster, range_max_m)
+}
+
+/// The used beams of `scan` (`used_beams`) with their σ(r).
+fn beam_data(scan: &Scan, config: &MclConfig) -> Vec<Beam> {
+    used_beams(scan, config.beams_used)
+        .into_iter()
+        .map(|i| Beam::new(scan.beam_angle_rad(i), scan.ranges_m[i] as f64, config))
+        .collect()
 }
 
 /// Indices of up to `count` beams evenly spaced over the scan (`⌊(k + ½)·n / count⌋`),

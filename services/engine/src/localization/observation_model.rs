@@ -91,38 +91,24 @@ impl ObservationModel {
     ) -> f64 {
         let floor = config.z_rand / range_max_m;
         let norm = |sigma: f64| config.z_hit / (sigma * std::f64::consts::TAU.sqrt());
-        let s = pose.meters_per_pixel;
+        let view = ParticleView::new(pose, raycaster, range_max_m);
         match self {
-            ObservationModel::RayCast => {
-                let max_px = range_max_m / s;
-                beams
-                    .iter()
-                    .map(|b| {
-                        let angle = pose.heading_rad + b.angle_rad;
-                        match raycaster.cast(pose.u_px, pose.v_px, angle, max_px) {
-                            Some(hit) => {
-                                let e = (b.range_m - s * hit.range_px) / b.sigma_m;
-                                norm(b.sigma_m) * (-0.5 * e * e).exp() + floor
-                            }
-                            None => floor,
-                        }
-                        .ln()
-                    })
-                    .sum()
-            }
+            ObservationModel::RayCast => beams
+                .iter()
+                .map(|b| {
+                    // No line within r_max: e = ∞, only the floor is left.
+                    let e = view.range_error(b);
+                    (norm(b.sigma_m) * (-0.5 * e * e).exp() + floor).ln()
+                })
+                .sum(),
             ObservationModel::LikelihoodField => {
                 let through = config.z_seen_through / range_max_m;
-                let (sin_h, cos_h) = pose.heading_rad.sin_cos();
                 // The product of the beams' likelihoods, one logarithm per particle: each
                 // factor lies in [floor, peak], so 60 beams stay far inside f64's range;
                 // the product is logged and restarted every `LOG_EVERY` beams all the same.
                 let (mut ll, mut product) = (0.0, 1.0);
                 for (k, b) in beams.iter().enumerate() {
-                    let (ca, sa) = b.cos_sin;
-                    let (cos, sin) = (cos_h * ca - sin_h * sa, sin_h * ca + cos_h * sa);
-                    let reach_px = b.range_m / s;
-                    let (eu, ev) = (pose.u_px + reach_px * cos, pose.v_px - reach_px * sin);
-                    let e = s * raycaster.interpolated_distance_px(eu, ev) / b.sigma_m;
+                    let e = view.end_error(b);
                     // Beyond 6σ the Gaussian is below 10⁻⁷ of its peak: left out.
                     let hit = if e < 6.0 {
                         norm(b.sigma_m) * (-0.5 * e * e).exp()
@@ -144,9 +130,7 @@ impl ObservationModel {
             }
         }
     }
-}
 
-impl ObservationModel {
     /// Mean per-beam agreement, 0..1, of the pose with the scan: the Gaussian part of
     /// `p(r | x)` over its peak — `exp(−(r − s·l)² / (2σ²))` with eq. (3) (0 when the ray
     /// hits no line), `exp(−d² / (2σ²))` with the likelihood field, 0 for a return it
@@ -163,38 +147,73 @@ impl ObservationModel {
         if beams.is_empty() {
             return 0.0;
         }
-        let s = pose.meters_per_pixel;
+        let view = ParticleView::new(pose, raycaster, range_max_m);
         let sum: f64 = beams
             .iter()
             .map(|b| {
-                let angle = pose.heading_rad + b.angle_rad;
-                match self {
-                    ObservationModel::RayCast => {
-                        match raycaster.cast(pose.u_px, pose.v_px, angle, range_max_m / s) {
-                            Some(hit) => {
-                                let e = (b.range_m - s * hit.range_px) / b.sigma_m;
-                                (-0.5 * e * e).exp()
-                            }
-                            None => 0.0,
-                        }
-                    }
+                let e = match self {
+                    ObservationModel::RayCast => view.range_error(b),
                     ObservationModel::LikelihoodField => {
-                        let reach_px = b.range_m / s;
-                        let (eu, ev) = (
-                            pose.u_px + reach_px * angle.cos(),
-                            pose.v_px - reach_px * angle.sin(),
-                        );
-                        let e = s * raycaster.interpolated_distance_px(eu, ev) / b.sigma_m;
+                        let e = view.end_error(b);
                         if e.is_finite() && !sees_through(pose, b, raycaster) {
-                            (-0.5 * e * e).exp()
+                            e
                         } else {
-                            0.0
+                            f64::INFINITY
                         }
                     }
-                }
+                };
+                (-0.5 * e * e).exp()
             })
             .sum();
         sum / beams.len() as f64
+    }
+}
+
+/// One particle's beams on the drawing: the standardized error `e` of a beam under each
+/// model, which both the likelihood and the score read.
+struct ParticleView<'a> {
+    pose: &'a SketchPose,
+    raycaster: &'a SketchRaycaster,
+    /// `r_max / s`, pixels.
+    max_px: f64,
+    /// `(cos θ, sin θ)` of the particle's heading.
+    cos_sin: (f64, f64),
+}
+
+impl<'a> ParticleView<'a> {
+    fn new(pose: &'a SketchPose, raycaster: &'a SketchRaycaster, range_max_m: f64) -> Self {
+        let (sin, cos) = pose.heading_rad.sin_cos();
+        Self {
+            pose,
+            raycaster,
+            max_px: range_max_m / pose.meters_per_pixel,
+            cos_sin: (cos, sin),
+        }
+    }
+
+    /// Eq. (3): `(r − s·l) / σ(r)`, `l` the range ray-traced on the drawing; `∞` when the
+    /// ray hits no line within `r_max`. One cast.
+    fn range_error(&self, b: &Beam) -> f64 {
+        let p = self.pose;
+        match self
+            .raycaster
+            .cast(p.u_px, p.v_px, p.heading_rad + b.angle_rad, self.max_px)
+        {
+            Some(hit) => (b.range_m - p.meters_per_pixel * hit.range_px) / b.sigma_m,
+            None => f64::INFINITY,
+        }
+    }
+
+    /// The likelihood field: `s · D(e) / σ(r)`, `D(e)` the drawing's distance field at the
+    /// beam's end `e = (u, v) + (r / s)·(cos φ, −sin φ)`; `∞` outside the image. Four
+    /// lookups (the direction is one rotation of the beam's precomputed `(cos α, sin α)`).
+    fn end_error(&self, b: &Beam) -> f64 {
+        let p = self.pose;
+        let ((cos_h, sin_h), (ca, sa)) = (self.cos_sin, b.cos_sin);
+        let (cos, sin) = (cos_h * ca - sin_h * sa, sin_h * ca + cos_h * sa);
+        let reach_px = b.range_m / p.meters_per_pixel;
+        let (eu, ev) = (p.u_px + reach_px * cos, p.v_px - reach_px * sin);
+        p.meters_per_pixel * self.raycaster.interpolated_distance_px(eu, ev) / b.sigma_m
     }
 }
 
