@@ -34,6 +34,22 @@ pub enum IcpReference {
     Submap,
 }
 
+/// Which pose on the drawing eq. (5) reads the drawn walls in view from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SketchHeadingView {
+    /// MCL's estimate, trusted from a score of 0.6 (the paper's Fig. 2).
+    #[default]
+    Mcl,
+    /// The predicted map pose carried onto the drawing through the warp W fitted to the
+    /// map (once a fit is in effect, [`super::Mapper::warp_request`]): the walls in view are
+    /// picked where the map says the robot is, and the drawn directions are read turned by
+    /// W's local rotation. W is read where the map's walls do not hold it yet too (its
+    /// extrapolation): eq. (4) keeps only the drawn walls the scan really sees from there.
+    /// MCL's trusted estimate before the first fit takes effect.
+    Warp,
+}
+
 /// Settings of a mapper; the defaults are the ones the evaluation reports.
 #[derive(Debug, Clone)]
 pub struct MapperConfig {
@@ -85,6 +101,10 @@ pub struct MapperConfig {
     /// drawing's own angular error and ignored, radians (a person draws a wall's direction
     /// within a few degrees).
     pub sketch_heading_deadband_rad: f64,
+    /// Where eq. (5) reads which drawn walls are in view and at what heading: MCL's
+    /// estimate (the paper) or the warp from the map onto the drawing
+    /// ([`SketchHeadingView`]).
+    pub sketch_heading_view: SketchHeadingView,
     /// The map frame of a session without a drawing (`odometry`, `icp`, `graph`) is the
     /// robot's start pose turned by this much, radians: at 0 the map's x axis is the
     /// robot's start heading. A measurement knob: how a result depends on the frame's
@@ -119,6 +139,7 @@ impl Default for MapperConfig {
             icp_odometry_gate_sigmas: None,
             sketch_heading_gain: 0.05,
             sketch_heading_deadband_rad: 4f64.to_radians(),
+            sketch_heading_view: SketchHeadingView::default(),
             frame_turn_rad: 0.0,
             loop_closure: Some(LoopClosureConfig::default()),
             registration: FitConfig::default(),

@@ -27,6 +27,9 @@ pub struct FrontEndInput<'a> {
     pub map_revision: u64,
     /// The map so far, current (the mapper rebuilds it first for a front end that reads it).
     pub grid: &'a OccupancyGrid,
+    /// `sketch` with [`super::config::SketchHeadingView::Warp`]: `predicted` carried onto
+    /// the drawing through the warp fitted to the map, once a fit is in effect.
+    pub drawing_view: Option<SketchPose>,
 }
 
 /// What the drawing side of a `sketch` front end reports for a scan.

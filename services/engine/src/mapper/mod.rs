@@ -51,9 +51,10 @@ mod lidar_mount;
 mod method;
 mod output;
 mod sketch_front_end;
+mod warp_schedule;
 
 pub use between_scans::blend_stretch;
-pub use config::{IcpReference, MapperConfig, SketchPrior};
+pub use config::{IcpReference, MapperConfig, SketchHeadingView, SketchPrior};
 pub use frame::ScanFrame;
 pub use front_end_io::{FrontEndInput, FrontEndOutput, SketchReport};
 pub use lidar_mount::LidarMount;
@@ -62,6 +63,7 @@ pub use output::{
     ClosedLoop, DrawingPoint, DrawingPoseSource, Health, PoseEstimate, TrajectoryPoint,
     trajectory_csv,
 };
+pub use warp_schedule::REFIT_KEYFRAMES;
 
 use crate::EngineError;
 use crate::back_end::heading_prior::WallHeadingPrior;
@@ -77,6 +79,8 @@ use nalgebra::Matrix3;
 use sketch_front_end::SketchFrontEnd;
 use sketchslam_types::{Odometry, Point2, Pose2, Scan, SensorEvent};
 use std::borrow::Cow;
+use std::sync::Arc;
+use warp_schedule::WarpSchedule;
 
 /// Seed offset of the heading-prior stage's own random stream (distinct from the front
 /// end's, which is seeded with `MapperConfig::seed` itself).
@@ -159,6 +163,9 @@ pub struct Mapper {
     map_revision: u64,
     /// True when keyframes moved since the grid was built.
     grid_stale: bool,
+    /// `sketch` sessions: the fits of the warp onto the drawing asked for and delivered
+    /// ([`Mapper::warp_request`], [`Mapper::deliver_warp`]).
+    warp: WarpSchedule,
 }
 
 /// A pose held relative to a keyframe of the loop-closure back end.
@@ -244,6 +251,7 @@ impl Mapper {
             scan_log: Vec::new(),
             map_revision: 0,
             grid_stale: false,
+            warp: WarpSchedule::default(),
         })
     }
 
@@ -309,14 +317,18 @@ impl Mapper {
             self.refresh_map();
         }
         let increment = self.odom_at_fix.between(&odom_now);
+        let predicted = self.map_at_fix.compose(&increment);
+        let keyframes = self.keyframe_count();
+        self.warp.before_scan(keyframes);
         let input = FrontEndInput {
             frame: &frame,
             increment,
             path: self.path_since_fix,
             last_pose: self.map_at_fix,
-            predicted: self.map_at_fix.compose(&increment),
+            predicted,
             map_revision: self.map_revision,
             grid: &self.grid,
+            drawing_view: self.drawing_view(&predicted),
         };
         let output = self.front_end.track(&input);
         if let Some(report) = output.sketch {
@@ -351,6 +363,49 @@ impl Mapper {
                 DrawingPoseSource::Mcl,
             );
         }
+    }
+
+    /// `predicted` (the LiDAR's map pose) on the drawing through the fit in effect (held
+    /// by the map's walls there or extrapolated), for eq. (5) with
+    /// [`SketchHeadingView::Warp`]; `None` otherwise.
+    fn drawing_view(&self, predicted: &Pose2) -> Option<SketchPose> {
+        if self.config.sketch_heading_view != SketchHeadingView::Warp {
+            return None;
+        }
+        let warp = self.warp.in_effect()?;
+        let at_fit = match &self.back_end {
+            Some(b) => warp.pose_at_fit(b.closer.poses(), predicted),
+            None => *predicted,
+        };
+        Some(warp.warp().pose_on_drawing(&at_fit))
+    }
+
+    /// `sketch` sessions: the map to fit the warp onto the drawing to, when a fit is due
+    /// ([`warp_schedule`] says when, in keyframes); the caller fits it off the scan path
+    /// ([`WarpProblem::solve`]) and answers with [`Mapper::deliver_warp`]. `None` when no
+    /// fit is due, a request is unanswered, or for the other methods. O(keyframe points).
+    pub fn warp_request(&mut self) -> Option<WarpProblem> {
+        let keyframes = self.keyframe_count();
+        if !self.warp.due(keyframes) {
+            return None;
+        }
+        let problem = self.warp_problem()?;
+        self.warp.request(keyframes);
+        Some(problem)
+    }
+
+    /// The answer to the last [`Mapper::warp_request`]: the fit (read by eq. (5) with
+    /// [`SketchHeadingView::Warp`] from the scan the schedule says), or `None` when W could
+    /// not be fitted.
+    pub fn deliver_warp(&mut self, fit: Option<Arc<DrawingRegistration>>) {
+        self.warp.deliver(fit);
+    }
+
+    /// True when the next scan would take into effect a fit asked for and not delivered:
+    /// a caller that fits on another thread waits for it before the next scan, so a run
+    /// builds the same map whatever the fit's duration.
+    pub fn awaits_warp(&self) -> bool {
+        self.warp.overdue(self.keyframe_count())
     }
 
     /// Appends a pose on the drawing, one per stamp as [`Mapper::push_trajectory`] does (a
@@ -872,7 +927,7 @@ mod tests {
     fn drive_laps(
         method: Method,
         config: MapperConfig,
-        mut after_scan: impl FnMut(&Mapper, u64),
+        mut after_scan: impl FnMut(&mut Mapper, u64),
     ) -> (Mapper, Vec<Pose2>) {
         let (sketch, truth) = room_and_laps();
         let raycaster = crate::sketch::raycast::SketchRaycaster::new(&sketch);
@@ -917,7 +972,7 @@ mod tests {
             scan.header.stamp_ns = stamp_ns;
             let revision = m.map_revision();
             m.on_scan(&scan);
-            after_scan(&m, revision);
+            after_scan(&mut m, revision);
         }
         (m, truth)
     }
@@ -1097,5 +1152,49 @@ mod tests {
             m.pose_on_drawing_through(&fit),
             fit.to_drawing(&m.pose().map)
         );
+    }
+
+    /// [`drive_laps`] with eq. (5) reading the drawing through the warp, each fit answered
+    /// `delay` scans after it was asked for (or just before the mapper would wait for it):
+    /// the trajectory, how many fits were delivered, and at how many scans the front end
+    /// had a view through a fit.
+    fn laps_through_the_warp(delay: usize) -> (Vec<TrajectoryPoint>, usize, usize) {
+        let config = MapperConfig {
+            sketch_heading_view: SketchHeadingView::Warp,
+            ..MapperConfig::default()
+        };
+        let mut pending: Option<(WarpProblem, usize)> = None;
+        let (mut delivered, mut seen) = (0, 0);
+        let (m, _) = drive_laps(Method::Sketch, config, |m, _| {
+            if let Some((problem, waited)) = pending.as_mut() {
+                *waited += 1;
+                if *waited >= delay || m.awaits_warp() {
+                    m.deliver_warp(problem.solve().map(Arc::new));
+                    delivered += 1;
+                    pending = None;
+                }
+            }
+            if pending.is_none()
+                && let Some(problem) = m.warp_request()
+            {
+                pending = Some((problem, 0));
+            }
+            assert!(!m.awaits_warp(), "a fit due and not delivered");
+            seen += usize::from(m.drawing_view(&m.map_at_fix).is_some());
+        });
+        (m.trajectory().into_owned(), delivered, seen)
+    }
+
+    #[test]
+    fn the_map_read_through_the_warp_does_not_depend_on_when_fits_arrive() {
+        let (early, fits, seen) = laps_through_the_warp(0);
+        assert!(fits >= 3, "{fits} fits");
+        let scans = early.len();
+        assert!(
+            seen > scans / 2,
+            "a view through W at {seen} of {scans} scans"
+        );
+        let (late, _, _) = laps_through_the_warp(usize::MAX);
+        assert!(early == late, "the trajectory depends on when fits arrive");
     }
 }

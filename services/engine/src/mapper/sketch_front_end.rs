@@ -188,16 +188,28 @@ impl SketchFrontEnd {
         // is the heading's error, not MCL's.
         let mut delta_rad = None;
         let mut scan_lines = None;
-        // Only a sound localization on the drawing picks the right lines: a lost MCL
-        // pairs scan walls with the wrong sketch walls and would steer the heading.
-        let trusted = !failed && self.mcl.score() >= MIN_TRUSTED_SCORE;
-        if trusted && !observed.is_empty() && points.len() >= 10 {
+        // With a view through the warp fitted to the map, the walls in view are those seen
+        // from W's pose and the drawn directions are read turned by W's local rotation.
+        // Without, only a sound localization on the drawing picks the right lines: a lost
+        // MCL pairs scan walls with the wrong sketch walls and would steer the heading.
+        let from_warp = input.drawing_view.map(|view| {
+            let in_view = observe_lines(&view, scan, &self.raycaster, &self.observation);
+            (view, observed_indices(&in_view))
+        });
+        let (view, in_view, trusted): (SketchPose, &[usize], bool) = match &from_warp {
+            Some((view, in_view)) => (*view, in_view, true),
+            None => (
+                SketchPose {
+                    heading_rad: predicted.heading_rad,
+                    ..sketch_pose
+                },
+                &observed,
+                !failed && self.mcl.score() >= MIN_TRUSTED_SCORE,
+            ),
+        };
+        if trusted && !in_view.is_empty() && points.len() >= 10 {
             let extracted = extract_lines(points, &self.ransac, &mut self.rng);
-            let lines: Vec<_> = observed.iter().map(|&i| self.sketch.lines[i]).collect();
-            let view = SketchPose {
-                heading_rad: predicted.heading_rad,
-                ..sketch_pose
-            };
+            let lines: Vec<_> = in_view.iter().map(|&i| self.sketch.lines[i]).collect();
             let pairs = match_lines(&lines, &view, &extracted, &MatchConfig::default());
             let aggregate = HeadingAggregate::InlierMean {
                 tolerance_rad: HEADING_INLIER_TOLERANCE_RAD,
@@ -256,5 +268,116 @@ impl SketchFrontEnd {
                 localization_score: self.mcl.score(),
             }),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mapper::frame::ScanFrame;
+    use crate::mapping::grid::OccupancyGrid;
+    use crate::scan_matching::odometry_noise::OdometryPath;
+    use crate::sketch::SketchLine;
+    use sketchslam_types::{Point2, Scan};
+
+    /// A 10 × 6 m room with a 2 × 1 m pillar drawn at 0.05 m per pixel, map point (x, y)
+    /// at pixel (10 + x / 0.05, 130 − y / 0.05).
+    fn room() -> Sketch {
+        let px = |x: f64, y: f64| Point2::new(10.0 + x / 0.05, 130.0 - y / 0.05);
+        let walls = [
+            ((0.0, 0.0), (10.0, 0.0)),
+            ((10.0, 0.0), (10.0, 6.0)),
+            ((10.0, 6.0), (0.0, 6.0)),
+            ((0.0, 6.0), (0.0, 0.0)),
+            ((4.0, 2.5), (6.0, 2.5)),
+            ((6.0, 2.5), (6.0, 3.5)),
+            ((6.0, 3.5), (4.0, 3.5)),
+            ((4.0, 3.5), (4.0, 2.5)),
+        ];
+        Sketch {
+            width_px: 220,
+            height_px: 140,
+            strokes: fixedbitset::FixedBitSet::with_capacity(220 * 140),
+            lines: walls
+                .iter()
+                .enumerate()
+                .map(|(i, (a, b))| SketchLine::new(i, px(a.0, a.1), px(b.0, b.1)))
+                .collect(),
+        }
+    }
+
+    /// The scan of a 270° LiDAR at map pose `at` in [`room`].
+    fn scan_at(sketch: &Sketch, at: Pose2) -> Scan {
+        let raycaster = SketchRaycaster::new(sketch);
+        let fov = 270f64.to_radians();
+        let ranges = (0..271)
+            .map(|i| {
+                let a = at.heading_rad - fov / 2.0 + i as f64 * fov / 270.0;
+                raycaster
+                    .cast(10.0 + at.x / 0.05, 130.0 - at.y / 0.05, a, 300.0)
+                    .map_or(f32::INFINITY, |h| (h.range_px * 0.05) as f32)
+            })
+            .collect();
+        Scan::centred(fov, 0.05, 15.0, ranges)
+    }
+
+    /// With the paper's hard correction, one scan whose predicted heading is 6° off: the
+    /// heading eq. (5) gives it, with and without a view on the drawing from the warp. MCL
+    /// starts 6 m and 90° from the robot, so it cannot pick the walls itself.
+    fn corrected_heading_deg(view_from_warp: bool) -> (f64, f64) {
+        let sketch = Arc::new(room());
+        let truth = Pose2::new(2.0, 1.5, 0.0);
+        let config = MapperConfig {
+            sketch_heading_gain: 1.0,
+            ..MapperConfig::default()
+        };
+        let far_start = SketchPose {
+            u_px: 10.0 + 8.0 / 0.05,
+            v_px: 130.0 - 1.5 / 0.05,
+            heading_rad: std::f64::consts::FRAC_PI_2,
+            meters_per_pixel: 0.05,
+        };
+        let prior = SketchPrior {
+            sketch: sketch.clone(),
+            start: far_start,
+        };
+        let mut front_end = SketchFrontEnd::new(prior, &config).unwrap();
+        let scan = scan_at(&sketch, truth);
+        let frame = ScanFrame::new(&scan).unwrap();
+        let predicted = Pose2::new(truth.x, truth.y, 6f64.to_radians());
+        let grid = OccupancyGrid::new(config.grid);
+        // An exact warp's view: the true position, the predicted heading (W turns nothing).
+        let view = SketchPose {
+            u_px: 10.0 + truth.x / 0.05,
+            v_px: 130.0 - truth.y / 0.05,
+            heading_rad: predicted.heading_rad,
+            meters_per_pixel: 0.05,
+        };
+        let input = FrontEndInput {
+            frame: &frame,
+            increment: Pose2::IDENTITY,
+            path: OdometryPath::default(),
+            last_pose: predicted,
+            predicted,
+            map_revision: 0,
+            grid: &grid,
+            drawing_view: view_from_warp.then_some(view),
+        };
+        let out = front_end.track(&input);
+        let score = out.sketch.unwrap().localization_score;
+        (out.pose.heading_rad.to_degrees(), score)
+    }
+
+    #[test]
+    fn the_warps_view_picks_the_walls_where_mcl_is_lost() {
+        let (through_warp, score) = corrected_heading_deg(true);
+        assert!(score < MIN_TRUSTED_SCORE, "MCL is not lost: score {score}");
+        assert!(
+            through_warp.abs() < 0.5,
+            "heading {through_warp}° (truth 0°)"
+        );
+        // Without the view, the lost MCL picks nothing and the 6° stay.
+        let (through_mcl, _) = corrected_heading_deg(false);
+        assert!((through_mcl - 6.0).abs() < 1e-9, "heading {through_mcl}°");
     }
 }
