@@ -3,9 +3,12 @@
 //!
 //! Sits beside the in-process mapping loop ([`crate::run_loop`]) and plays the part of
 //! slam-service's warp worker (`sketchslam_slam::warp_cache`) deterministically: W is
-//! refitted once the map has [`REFIT_KEYFRAMES`] keyframes more than at the last fit, at
-//! that scan, on the map as it is then (the service fits on a worker thread, so there W is
-//! also as old as a fit takes), and the pose is read through it as the service reads it
+//! fitted when the mapper asks (every
+//! [`REFIT_KEYFRAMES`](sketchslam_engine::mapper::REFIT_KEYFRAMES) keyframes,
+//! `Mapper::warp_request`), at that scan, on the map as it is then, and handed back to the
+//! mapper (the service fits on a worker thread, so there the live pose reads W only once
+//! the fit is done; the mapper's front end reads each fit from the same keyframe in both),
+//! and the pose is read through it as the service reads it
 //! (`Mapper::pose_on_drawing_through`). Until the first fit the published pose is MCL's,
 //! as the service's.
 //!
@@ -19,12 +22,12 @@ use anyhow::Result;
 use sketchslam_engine::mapper::{Mapper, TrajectoryPoint, trajectory_csv};
 use sketchslam_engine::registration::{DrawingRegistration, WarpProblem};
 use sketchslam_engine::sketch::SketchPose;
-use sketchslam_slam::warp_cache::REFIT_KEYFRAMES;
 use std::path::Path;
+use std::sync::Arc;
 
 /// The warp a live session holds, refitted by the service's rule.
 pub struct LiveWarp {
-    held: Option<DrawingRegistration>,
+    held: Option<Arc<DrawingRegistration>>,
     /// `Some` when the live fits' problems are kept.
     kept: Option<Vec<LiveFit>>,
 }
@@ -48,24 +51,23 @@ impl LiveWarp {
         }
     }
 
-    /// After the `scans`-th scan: refits W when due, then the scan's pose on the drawing as
-    /// published, through W, or MCL's pose before the first fit (`None` without either).
-    pub fn after_scan(&mut self, mapper: &Mapper, scans: usize) -> Option<SketchPose> {
-        let due = self
-            .held
-            .as_ref()
-            .is_none_or(|r| mapper.keyframe_count() >= r.keyframes + REFIT_KEYFRAMES);
-        if due
-            && let Some(problem) = mapper.warp_problem()
-            && let Some(fitted) = problem.solve()
-        {
-            self.held = Some(fitted);
-            if let Some(kept) = self.kept.as_mut() {
-                kept.push(LiveFit {
-                    scans,
-                    problem,
-                    trajectory: mapper.trajectory().into_owned(),
-                });
+    /// After the `scans`-th scan: fits W when the mapper asks ([`Mapper::warp_request`]) and
+    /// answers it (as the service's worker does, [`Mapper::deliver_warp`]), then the scan's
+    /// pose on the drawing as published, through the newest W, or MCL's pose before the
+    /// first fit (`None` without either).
+    pub fn after_scan(&mut self, mapper: &mut Mapper, scans: usize) -> Option<SketchPose> {
+        if let Some(problem) = mapper.warp_request() {
+            let fitted = problem.solve().map(Arc::new);
+            mapper.deliver_warp(fitted.clone());
+            if let Some(fitted) = fitted {
+                self.held = Some(fitted);
+                if let Some(kept) = self.kept.as_mut() {
+                    kept.push(LiveFit {
+                        scans,
+                        problem,
+                        trajectory: mapper.trajectory().into_owned(),
+                    });
+                }
             }
         }
         match &self.held {

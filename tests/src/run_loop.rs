@@ -113,7 +113,7 @@ pub fn map_in_process(
             });
             if let Some(on) = live_warp
                 .as_mut()
-                .and_then(|w| w.after_scan(&mapper, truth.len()))
+                .and_then(|w| w.after_scan(&mut mapper, truth.len()))
             {
                 live_sketch_poses.push((scan.header.stamp_ns as f64 * 1e-9, on));
             }

@@ -13,7 +13,7 @@
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -38,7 +38,7 @@ use sketchslam_api::{RegistrationInfo, SketchInMapResponse, TransformRequest, Tr
 use sketchslam_engine::mapper::{Mapper, Method, trajectory_csv};
 use sketchslam_engine::mapping::grid::OccupancyGrid;
 use sketchslam_engine::registration::{
-    DrawingRegistration, render_drawing_on_map, render_map_on_drawing,
+    DrawingRegistration, WarpProblem, render_drawing_on_map, render_map_on_drawing,
 };
 use sketchslam_engine::sketch::Sketch;
 use sketchslam_engine::sketch::overlay::encode_png;
@@ -145,21 +145,29 @@ impl Session {
         let (intake, rx) = Intake::start(ipc, &robot_id).map_err(|e| {
             ApiError::Unavailable(format!("cannot subscribe to robot {robot_id:?}: {e}"))
         })?;
+        // The warp worker fits what the mapper thread asks for (sketch sessions).
+        let (warp_tx, warp_worker) = if lock(&mapper).drawing().is_some() {
+            let (tx, problems) = std::sync::mpsc::channel();
+            let stop = Arc::new(AtomicBool::new(false));
+            let worker = spawn_worker(
+                &robot_id,
+                mapper.clone(),
+                shared.warp.clone(),
+                problems,
+                stop.clone(),
+            )
+            .map_err(|e| ApiError::internal(format!("cannot spawn the warp worker: {e}")))?;
+            (Some(tx), Some((stop, worker)))
+        } else {
+            (None, None)
+        };
         let thread = {
             let shared = shared.clone();
             let mapper = mapper.clone();
             std::thread::Builder::new()
                 .name(format!("mapper-{robot_id}"))
-                .spawn(move || run_mapper(rx, mapper, shared, histogram))
+                .spawn(move || run_mapper(rx, mapper, shared, histogram, warp_tx))
                 .map_err(|e| ApiError::internal(format!("cannot spawn the mapper thread: {e}")))?
-        };
-        let warp_worker = if lock(&mapper).drawing().is_some() {
-            let stop = Arc::new(AtomicBool::new(false));
-            let worker = spawn_worker(&robot_id, mapper.clone(), shared.warp.clone(), stop.clone())
-                .map_err(|e| ApiError::internal(format!("cannot spawn the warp worker: {e}")))?;
-            Some((stop, worker))
-        } else {
-            None
         };
         tracing::info!(session = %id, robot = %robot_id, "session started");
         Ok(Session {
@@ -530,6 +538,7 @@ fn run_mapper(
     mapper: Arc<Mutex<Mapper>>,
     shared: Arc<SessionShared>,
     histogram: Arc<Histogram>,
+    warp_tx: Option<Sender<WarpProblem>>,
 ) {
     let session_id = lock(&shared.info).id.clone();
     let _ended = MappingEnded {
@@ -575,8 +584,17 @@ fn run_mapper(
                 let started = Instant::now();
                 let warp = shared.warp.current();
                 let outcome = catch_unwind(AssertUnwindSafe(|| {
-                    let mut m = lock(&mapper);
+                    // A fit the mapper is due to read is waited for: the map does not
+                    // depend on how long fits take (`warp_cache`).
+                    let mut m = shared.warp.wait_for_delivery(lock(&mapper));
                     m.on_event(&event);
+                    if let Some(tx) = &warp_tx
+                        && let Some(problem) = m.warp_request()
+                        && tx.send(problem).is_err()
+                    {
+                        // The worker is gone: answer for it, so the mapper never waits.
+                        m.deliver_warp(None);
+                    }
                     let on_drawing = warp.as_ref().map(|r| m.pose_on_drawing_through(r));
                     (m.health(), m.pose(), on_drawing)
                 }));

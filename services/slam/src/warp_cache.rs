@@ -1,16 +1,23 @@
 //! A `sketch` session's warp onto its drawing, kept fresh beside the mapper thread: the
-//! last [`DrawingRegistration`], refitted by a worker thread of its own once the map has
-//! grown by [`REFIT_KEYFRAMES`], and on demand by HTTP requests that find it stale (the map
-//! grown or moved by a loop correction).
+//! last [`DrawingRegistration`], fitted by a worker thread of its own whenever the mapper
+//! asks (every [`REFIT_KEYFRAMES`] keyframes, `Mapper::warp_request`), and on demand by
+//! HTTP requests that find it stale (the map grown or moved by a loop correction).
 //!
 //! Sits between the session's mapper (behind its mutex) and everything read through W:
 //! the live pose on the drawing ([`super::session`]), the trajectory on the drawing, the
-//! map-on-drawing endpoints. A fit copies the walls out under the mapper's lock
-//! ([`Mapper::warp_problem`], O(keyframe points)) and solves without it, so the mapper
-//! thread never waits for a fit.
+//! map-on-drawing endpoints, and the mapper's own front end. The mapper thread copies the
+//! walls out when the mapper asks ([`Mapper::warp_request`], O(keyframe points)) and sends
+//! them here; the worker solves without the lock and hands the fit back
+//! ([`Mapper::deliver_warp`]). The mapper reads each fit from a keyframe count fixed when it
+//! asked (`sketchslam_engine::mapper::REFIT_KEYFRAMES` keyframes later), so the map is the
+//! same however long the fit takes; the mapper thread waits for a fit only when it is due
+//! and not done ([`WarpCache::wait_for_delivery`]): in a lock-step replay that costs time,
+//! in real time it happens when a fit takes longer than the robot takes to drive 5 m.
+//! HTTP refits update the cache only, never the mapper.
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -19,17 +26,24 @@ use sketchslam_engine::registration::{DrawingRegistration, WarpProblem};
 
 use super::session::lock;
 
-/// The warp is fitted again once the map has this many keyframes more than at the last
-/// fit (5 m of route at the default keyframe spacing), or has moved.
-pub const REFIT_KEYFRAMES: usize = 10;
+/// The mapper asks for a fit once its map has this many keyframes more than at the last
+/// request (5 m of route at the default keyframe spacing); HTTP requests refit once the
+/// map has grown by as much, or has moved.
+pub use sketchslam_engine::mapper::REFIT_KEYFRAMES;
 
-/// How often the worker looks whether the map has moved or grown.
+/// How often the worker looks whether it is to stop.
 pub const REFIT_POLL: Duration = Duration::from_millis(200);
+
+/// How long the mapper thread waits for a fit it is due to read before it goes on without
+/// (the fit failed in the worker, or the worker is gone): the map then depends on timing.
+pub const DELIVERY_WAIT: Duration = Duration::from_secs(60);
 
 /// The last fitted warp of a session.
 #[derive(Debug, Default)]
 pub struct WarpCache {
     slot: Mutex<Option<Arc<DrawingRegistration>>>,
+    /// Notified (with the mapper's mutex) when the worker hands the mapper a fit.
+    delivered: Condvar,
 }
 
 impl WarpCache {
@@ -44,16 +58,6 @@ impl WarpCache {
         self.refit_unless(mapper, |r, m| {
             r.map_revision == m.map_revision() && !has_grown(r, m)
         })
-    }
-
-    /// The worker's refit: a new fit once the map has grown by [`REFIT_KEYFRAMES`] since
-    /// the last (or when there is none yet), not when it only moved — the live pose is read
-    /// through W in the frame W was fitted in (`Mapper::pose_on_drawing_through`), so a loop
-    /// correction leaves it right, and a refit per correction (one every few keyframes on
-    /// a busy floor) would keep a core busy for nothing. HTTP requests that read W over the
-    /// moved map ask [`WarpCache::fresh`].
-    pub fn grown(&self, mapper: &Mutex<Mapper>) -> Option<Arc<DrawingRegistration>> {
-        self.refit_unless(mapper, |r, m| !has_grown(r, m))
     }
 
     /// The last fit where `holds(fit, mapper)`, else a new one (the walls copied under the
@@ -85,6 +89,27 @@ impl WarpCache {
         *lock(&self.slot) = Some(fitted.clone());
         Some(fitted)
     }
+
+    /// The mapper thread, before it maps the next message: while the mapper waits for a
+    /// fit it asked for ([`Mapper::awaits_warp`]), waits for the worker to deliver it, up to
+    /// [`DELIVERY_WAIT`]; then goes on without it (logged). Returns the mapper's guard.
+    pub fn wait_for_delivery<'a>(&self, mut m: MutexGuard<'a, Mapper>) -> MutexGuard<'a, Mapper> {
+        let started = Instant::now();
+        while m.awaits_warp() {
+            let left = DELIVERY_WAIT.saturating_sub(started.elapsed());
+            if left.is_zero() {
+                tracing::warn!("no warp fit within {DELIVERY_WAIT:?}: mapping on without it");
+                m.deliver_warp(None);
+                break;
+            }
+            m = self
+                .delivered
+                .wait_timeout(m, left)
+                .map(|(g, _)| g)
+                .unwrap_or_else(|e| e.into_inner().0);
+        }
+        m
+    }
 }
 
 /// True once the map has [`REFIT_KEYFRAMES`] keyframes more than `r` was fitted to.
@@ -106,20 +131,28 @@ fn timed_solve(problem: &WarpProblem) -> Option<DrawingRegistration> {
     fitted
 }
 
-/// The worker that keeps `cache` fresh for `mapper` until `stop` is set; a thread named
-/// `warp-ROBOT`.
+/// The worker that fits what the mapper thread sends (`problems`, the mapper's
+/// [`Mapper::warp_request`]s), stores each fit in `cache` and hands it to `mapper`, until
+/// `stop` is set or the mapper thread hangs up; a thread named `warp-ROBOT`.
 pub fn spawn_worker(
     robot_id: &str,
     mapper: Arc<Mutex<Mapper>>,
     cache: Arc<WarpCache>,
+    problems: Receiver<WarpProblem>,
     stop: Arc<AtomicBool>,
 ) -> std::io::Result<JoinHandle<()>> {
     std::thread::Builder::new()
         .name(format!("warp-{robot_id}"))
         .spawn(move || {
             while !stop.load(Ordering::Acquire) {
-                cache.grown(&mapper);
-                std::thread::sleep(REFIT_POLL);
+                let problem = match problems.recv_timeout(REFIT_POLL) {
+                    Ok(problem) => problem,
+                    Err(RecvTimeoutError::Timeout) => continue,
+                    Err(RecvTimeoutError::Disconnected) => break,
+                };
+                let fitted = cache.store(timed_solve(&problem));
+                lock(&mapper).deliver_warp(fitted);
+                cache.delivered.notify_all();
             }
         })
 }
