@@ -14,11 +14,11 @@ use crate::registration::{
     SketchInMapResponse, SketchLineInMap, TransformRequest, TransformResponse, WarpInfo,
 };
 use crate::types::{
-    CreateSessionRequest, DrawingObservationModel, HealthResponse, LidarMount, MappingMethod,
-    PixelPoint, PoseResponse, SessionEvent, SessionInfo, SessionList, SessionState, SketchInfo,
-    SketchLineInfo, SketchList, SketchPoseInfo, SketchPoseSource, SketchStart, SketchSummary,
-    SketchTrajectoryPointInfo, SketchTrajectoryResponse, StopReason, TrajectoryPointInfo,
-    TrajectoryResponse,
+    CreateSessionRequest, DrawingLocalization, DrawingObservationModel, HealthResponse, LidarMount,
+    MappingMethod, PixelPoint, PoseResponse, SessionEvent, SessionInfo, SessionList, SessionState,
+    SketchInfo, SketchLineInfo, SketchList, SketchPoseInfo, SketchPoseSource, SketchStart,
+    SketchSummary, SketchTrajectoryPointInfo, SketchTrajectoryResponse, StopReason,
+    TrajectoryPointInfo, TrajectoryResponse,
 };
 use crate::{registration_routes, router};
 
@@ -68,7 +68,7 @@ use crate::{registration_routes, router};
         OccupancyGridResponse, MapMetaData, RosHeader, RosTime, RosPose, RosPoint, RosQuaternion,
         PixelPoint, PoseResponse, SessionEvent, SessionInfo,
         SessionList, SessionState, StopReason, SketchInfo, SketchLineInfo, SketchList,
-        SketchPoseInfo, SketchPoseSource, LidarMount, DrawingObservationModel,
+        SketchPoseInfo, SketchPoseSource, LidarMount, DrawingObservationModel, DrawingLocalization,
         SketchStart, SketchSummary, SketchTrajectoryPointInfo, SketchTrajectoryResponse,
         TrajectoryPointInfo, TrajectoryResponse, RegistrationInfo, WarpInfo, SketchInMapResponse,
         SketchLineInMap, TransformRequest, TransformResponse, DrawingPointIn, DrawingPointOut,

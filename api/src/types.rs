@@ -226,6 +226,23 @@ pub struct CreateSessionRequest {
     /// For `sketch`: how MCL on the drawing weighs a scan; default `ray_cast`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mcl_observation: Option<DrawingObservationModel>,
+    /// For `sketch`: which localization on the drawing picks the drawn walls that hold the
+    /// map's heading (the paper's eq. 5); default `mcl`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drawing_localization: Option<DrawingLocalization>,
+}
+
+/// Which localization on the drawing picks the drawn walls in view that hold the robot's
+/// heading (`sketch` sessions). The pose on the drawing the session serves is the warp's
+/// either way, once the map's walls are fitted to the drawing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum DrawingLocalization {
+    /// MCL's estimate, as the paper (the default).
+    Mcl,
+    /// The warp from the map onto the drawing, refitted every 5 m of route (MCL's estimate
+    /// until the first fit): the walls are picked where the map says the robot is.
+    Warp,
 }
 
 /// How MCL on the drawing weighs a scan against the drawn walls (`sketch` sessions).
@@ -431,6 +448,10 @@ pub struct SessionInfo {
     /// `sketch` sessions: how MCL on the drawing weighs a scan (absent for the others).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mcl_observation: Option<DrawingObservationModel>,
+    /// `sketch` sessions: which localization on the drawing holds the heading (absent for
+    /// the others).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drawing_localization: Option<DrawingLocalization>,
     /// When the running session was last written to disk (its checkpoint: what a crash
     /// would leave), milliseconds since the Unix epoch; absent before the first.
     #[serde(default, skip_serializing_if = "Option::is_none")]

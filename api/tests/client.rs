@@ -57,6 +57,7 @@ async fn client_covers_every_endpoint() {
         seed: None,
         lidar_mount: None,
         mcl_observation: None,
+        drawing_localization: None,
     };
     let session = c.create_session(&request).await.unwrap();
     assert_eq!(session.state, SessionState::WaitingForData);

@@ -660,6 +660,28 @@ async fn the_observation_model_of_mcl_is_kept_with_the_session_and_a_bad_one_is_
 }
 
 #[tokio::test]
+async fn the_drawing_localization_is_kept_with_the_session_and_a_bad_one_is_refused() {
+    let h = default_harness();
+    let a = post_json(
+        &h.app,
+        "/v1/sessions",
+        &json!({"robot_id": "r1", "method": "graph", "drawing_localization": "gps"}),
+    )
+    .await;
+    assert!(a.status.is_client_error(), "{}", a.text());
+    assert!(a.text().contains("drawing_localization"), "{}", a.text());
+    assert!(h.fake.sessions.lock().unwrap().is_empty());
+    let a = post_json(
+        &h.app,
+        "/v1/sessions",
+        &json!({"robot_id": "r1", "method": "graph", "drawing_localization": "warp"}),
+    )
+    .await;
+    assert_eq!(a.status, StatusCode::CREATED, "{}", a.text());
+    assert_eq!(a.json()["drawing_localization"], "warp");
+}
+
+#[tokio::test]
 async fn events_stream_status_then_poses_and_ends_on_stop() {
     let h = default_harness();
     let id = start_session(&h).await;

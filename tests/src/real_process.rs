@@ -16,17 +16,18 @@ use crate::run_loop::{
     LIVE_SKETCH_TRAJECTORY_FILE, RunFigures, SKETCH_IN_MAP_FILE, SKETCH_OVERLAY_FILE,
     WARP_TRAJECTORY_FILE, served_drawing_poses, warp_held_share, write_drawing_trajectory,
 };
+use crate::run_method::RunMethod;
 use crate::service_histogram::{SCAN_PROCESSING, ServiceHistogram};
 use crate::service_process::{ServiceOptions, ServiceProcess};
 use crate::session_request::{baseline_session, sketch_session};
 use crate::sketch_truth::{fill_sketch_pose_scores, score_published_poses};
 use anyhow::{Context, Result, bail};
 use sketchslam_api::{
-    ClientError, CreateSessionRequest, DrawingPointOut, LidarMount, MAX_TRANSFORM_POINTS,
-    MapPointIn, SessionEvent, SketchPoseInfo, SketchslamClient, TrajectoryPointInfo,
-    TransformRequest,
+    ClientError, CreateSessionRequest, DrawingLocalization, DrawingPointOut, LidarMount,
+    MAX_TRANSFORM_POINTS, MapPointIn, SessionEvent, SketchPoseInfo, SketchslamClient,
+    TrajectoryPointInfo, TransformRequest,
 };
-use sketchslam_engine::mapper::Method;
+use sketchslam_engine::mapper::{Method, SketchHeadingView};
 use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
 use sketchslam_simulator::simulation::Simulation;
@@ -57,7 +58,7 @@ const DRAIN_IDLE_TIMEOUT: Duration = Duration::from_secs(20);
 /// `max_scans`, only the run's first scans.
 pub fn run_real_process(
     scenario: &Scenario,
-    method: Method,
+    method: impl Into<RunMethod>,
     sketch: Option<&SketchConfig>,
     out_dir: &Path,
     max_scans: Option<u64>,
@@ -70,7 +71,9 @@ pub fn run_real_process(
         scans: Simulation::new(scenario)?.scan_count(),
         lidar_mount: scenario.lidar.mount,
     };
-    let mapped = map_through_processes(&source, method, sketch, out_dir, max_scans, progress)?;
+    let run_method = method.into();
+    let method = run_method.method;
+    let mapped = map_through_processes(&source, run_method, sketch, out_dir, max_scans, progress)?;
     let world = World::load(&scenario.world.image, scenario.world.resolution_m)?;
     let walls = WallGrid::from_image(
         &image::open(&scenario.world.image)?.to_luma8(),
@@ -176,10 +179,12 @@ impl ProcessRun {
 
 /// Runs `slam-service` and `simulator SUBCOMMAND` (lock-step) on `source`, waits until
 /// every published scan is processed and writes `map.pgm`, `map.yaml`, `trajectory.csv`
-/// (from the service) and `truth.csv` (from the simulator) into `out_dir`.
+/// (from the service) and `truth.csv` (from the simulator) into `out_dir`. Of `method`'s
+/// settings the session is asked for the drawing localization when it is not the
+/// service's default; the others are the service's.
 pub fn map_through_processes(
     source: &StreamSource<'_>,
-    method: Method,
+    method: impl Into<RunMethod>,
     sketch: Option<&SketchConfig>,
     out_dir: &Path,
     max_scans: Option<u64>,
@@ -198,6 +203,8 @@ pub fn map_through_processes(
         .build()?;
     let mut service = runtime.block_on(ServiceProcess::start(&options))?;
     let client = service.client.clone();
+    let run_method = method.into();
+    let method = run_method.method;
 
     let request = match (method, sketch) {
         (Method::Sketch, Some(cfg)) => {
@@ -210,8 +217,14 @@ pub fn map_through_processes(
         (m, _) => baseline_session(ROBOT_ID, api_method(m), Some(source.seed)),
     };
     let mount = source.lidar_mount;
+    let view = run_method.sketch_heading_view;
     let request = CreateSessionRequest {
         lidar_mount: (mount != Pose2::IDENTITY).then(|| LidarMount::from_pose(mount)),
+        drawing_localization: (method == Method::Sketch && view != SketchHeadingView::default())
+            .then_some(match view {
+                SketchHeadingView::Mcl => DrawingLocalization::Mcl,
+                SketchHeadingView::Warp => DrawingLocalization::Warp,
+            }),
         ..request
     };
     let session = runtime.block_on(client.create_session(&request))?;

@@ -4,7 +4,7 @@
 
 use sketchslam_engine::localization::mcl::MclConfig;
 use sketchslam_engine::localization::observation_model::ObservationModel;
-use sketchslam_engine::mapper::{MapperConfig, Method};
+use sketchslam_engine::mapper::{MapperConfig, Method, SketchHeadingView};
 use sketchslam_types::Pose2;
 use std::fmt;
 use std::str::FromStr;
@@ -35,6 +35,12 @@ pub struct RunMethod {
     /// `sketch` runs: how MCL on the drawing weighs a scan (`MclConfig::observation`; the
     /// engine's default unless asked).
     pub mcl_observation: ObservationModel,
+    /// `sketch` runs: where eq. (5) reads the drawn walls in view
+    /// (`MapperConfig::sketch_heading_view`; the engine's default unless asked).
+    pub sketch_heading_view: SketchHeadingView,
+    /// `sketch` runs: eq. (5)'s heading gain (`MapperConfig::sketch_heading_gain`) when
+    /// set, the engine's default otherwise. 0 leaves the drawing out of the map.
+    pub sketch_heading_gain: Option<f64>,
 }
 
 impl From<Method> for RunMethod {
@@ -47,6 +53,8 @@ impl From<Method> for RunMethod {
             keep_live_warps: false,
             live_warp: true,
             mcl_observation: ObservationModel::default(),
+            sketch_heading_view: SketchHeadingView::default(),
+            sketch_heading_gain: None,
         }
     }
 }
@@ -64,6 +72,10 @@ impl RunMethod {
             loop_closure: defaults.loop_closure.filter(|_| self.loop_closure),
             lidar_mount: self.lidar_mount,
             frame_turn_rad: self.frame_turn_rad,
+            sketch_heading_view: self.sketch_heading_view,
+            sketch_heading_gain: self
+                .sketch_heading_gain
+                .unwrap_or(defaults.sketch_heading_gain),
             ..defaults
         }
     }
@@ -100,6 +112,8 @@ impl FromStr for RunMethod {
             keep_live_warps: false,
             live_warp: true,
             mcl_observation: ObservationModel::default(),
+            sketch_heading_view: SketchHeadingView::default(),
+            sketch_heading_gain: None,
         })
     }
 }

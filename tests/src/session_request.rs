@@ -32,6 +32,7 @@ pub fn sketch_session(
         seed,
         lidar_mount: None,
         mcl_observation: None,
+        drawing_localization: None,
     }
 }
 
@@ -50,5 +51,6 @@ pub fn baseline_session(
         seed,
         lidar_mount: None,
         mcl_observation: None,
+        drawing_localization: None,
     }
 }

@@ -188,6 +188,7 @@ async fn run(data: &std::path::Path) -> Result<()> {
             seed: Some(1),
             lidar_mount: None,
             mcl_observation: None,
+            drawing_localization: None,
         })
         .await?;
     let p = prefix.clone();

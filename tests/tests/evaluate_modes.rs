@@ -2,11 +2,12 @@
 //! real `slam-service` and `simulator` processes (iceoryx2 lock-step + HTTP) must build the
 //! identical map, byte for byte, and score the same.
 
-use sketchslam_engine::mapper::Method;
+use sketchslam_engine::mapper::{Method, SketchHeadingView};
 use sketchslam_simulator::scenario::Scenario;
 use sketchslam_tests::processes::bundled_scenario;
 use sketchslam_tests::real_process::run_real_process;
 use sketchslam_tests::run::{RunResult, run_in_process};
+use sketchslam_tests::run_method::RunMethod;
 
 /// Long enough for MCL, line matching and ICP to have shaped the map.
 const SCANS: u64 = 400;
@@ -19,17 +20,36 @@ const GRAPH_SCANS: u64 = 2600;
 /// the maps are the same bytes and score the same. Returns the in-process and the
 /// real-process results.
 fn both_modes_agree(
-    method: Method,
+    method: impl Into<RunMethod>,
     sketch_name: Option<&str>,
     scans: u64,
 ) -> anyhow::Result<(RunResult, RunResult)> {
+    let run_method: RunMethod = method.into();
+    let method = run_method.method;
     let scenario = Scenario::load(&bundled_scenario("paper-env1"))?;
     let sketch = sketch_name.map(|n| scenario.sketch(n).expect("the sketch is bundled"));
-    let out =
-        std::env::temp_dir().join(format!("sketchslam-modes-{method}-{}", std::process::id()));
+    let out = std::env::temp_dir().join(format!(
+        "sketchslam-modes-{method}-{:?}-{}",
+        run_method.sketch_heading_view,
+        std::process::id()
+    ));
     let (a_dir, b_dir) = (out.join("in-process"), out.join("processes"));
-    let a = run_in_process(&scenario, method, sketch, &a_dir, Some(scans), |_, _| {})?;
-    let b = run_real_process(&scenario, method, sketch, &b_dir, Some(scans), |_, _| {})?;
+    let a = run_in_process(
+        &scenario,
+        run_method,
+        sketch,
+        &a_dir,
+        Some(scans),
+        |_, _| {},
+    )?;
+    let b = run_real_process(
+        &scenario,
+        run_method,
+        sketch,
+        &b_dir,
+        Some(scans),
+        |_, _| {},
+    )?;
     assert_eq!(a.scans, scans);
     assert_eq!(b.scans, scans);
     let map_a = std::fs::read(a_dir.join("map.pgm"))?;
@@ -99,6 +119,20 @@ fn in_process_and_real_processes_build_the_same_map() -> anyhow::Result<()> {
     // sensor saw in those scans only).
     assert!(a.map_error_m <= 0.25, "map error {}", a.map_error_m);
     assert!(a.completeness >= 0.8, "completeness {}", a.completeness);
+    Ok(())
+}
+
+/// The front end reads the warp onto the drawing, fitted on the service's worker thread
+/// whenever it gets to it: the session waits for a fit it is due to read, so the map is
+/// still the in-process one, byte for byte.
+#[test]
+fn reading_the_drawing_through_the_warp_builds_the_same_map_in_both_modes() -> anyhow::Result<()> {
+    let warp = RunMethod {
+        sketch_heading_view: SketchHeadingView::Warp,
+        ..RunMethod::from(Method::Sketch)
+    };
+    let (a, _) = both_modes_agree(warp, Some("A"), SCANS)?;
+    assert!(a.map_error_m <= 0.25, "map error {}", a.map_error_m);
     Ok(())
 }
 

@@ -68,6 +68,7 @@ async fn run(data: &std::path::Path) -> Result<()> {
             seed: None,
             lidar_mount: None,
             mcl_observation: None,
+            drawing_localization: None,
         })
         .await?;
 

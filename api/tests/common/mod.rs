@@ -196,6 +196,7 @@ impl Backend for Fake {
             lidar_mount: r.lidar_mount,
             checkpoint_unix_ms: None,
             mcl_observation: r.mcl_observation,
+            drawing_localization: r.drawing_localization,
         };
         sessions.insert(info.id.clone(), info.clone());
         self.events

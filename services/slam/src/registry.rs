@@ -11,10 +11,11 @@ use std::sync::{Arc, Mutex};
 
 use axum::body::Bytes;
 use sketchslam_api::{
-    ApiError, Backend, CreateSessionRequest, DrawingObservationModel, EventSubscription, MapFrame,
-    MappingMethod, OccupancyGridResponse, PoseResponse, RegistrationInfo, SessionInfo,
-    SessionState, SketchInMapResponse, SketchInfo, SketchSummary, SketchTrajectoryResponse,
-    SketchUpload, StopReason, TaggedPng, TrajectoryResponse, TransformRequest, TransformResponse,
+    ApiError, Backend, CreateSessionRequest, DrawingLocalization, DrawingObservationModel,
+    EventSubscription, MapFrame, MappingMethod, OccupancyGridResponse, PoseResponse,
+    RegistrationInfo, SessionInfo, SessionState, SketchInMapResponse, SketchInfo, SketchSummary,
+    SketchTrajectoryResponse, SketchUpload, StopReason, TaggedPng, TrajectoryResponse,
+    TransformRequest, TransformResponse,
 };
 use sketchslam_ipc::IpcConfig;
 
@@ -31,6 +32,7 @@ use super::storage::{SessionMeta, Storage};
 use super::vda5050::StartedSession;
 use sketchslam_engine::EngineError;
 use sketchslam_engine::localization::observation_model::ObservationModel;
+use sketchslam_engine::mapper::SketchHeadingView;
 use sketchslam_engine::mapper::{Mapper, SketchPrior};
 use sketchslam_engine::sketch::SketchPose;
 use tokio::sync::mpsc;
@@ -327,6 +329,18 @@ impl Registry {
             ObservationModel::RayCast => DrawingObservationModel::RayCast,
         };
         let mcl_observation = (request.method == MappingMethod::Sketch).then_some(running);
+        if let Some(view) = request.drawing_localization {
+            mapper_config.sketch_heading_view = match view {
+                DrawingLocalization::Mcl => SketchHeadingView::Mcl,
+                DrawingLocalization::Warp => SketchHeadingView::Warp,
+            };
+        }
+        let drawing_localization = (request.method == MappingMethod::Sketch).then_some(
+            match mapper_config.sketch_heading_view {
+                SketchHeadingView::Mcl => DrawingLocalization::Mcl,
+                SketchHeadingView::Warp => DrawingLocalization::Warp,
+            },
+        );
         let mapper = Mapper::new(method, prior, mapper_config).map_err(|e| match e {
             EngineError::InvalidParameter { name, reason } => {
                 ApiError::invalid("invalid_parameter", format!("{name}: {reason}"))
@@ -355,6 +369,7 @@ impl Registry {
             stop_reason: None,
             lidar_mount: request.lidar_mount,
             mcl_observation,
+            drawing_localization,
             checkpoint_unix_ms: None,
         };
         Session::start(info, mapper, self.ipc.clone(), self.histogram.clone())

@@ -73,6 +73,7 @@ fn sketch_start(sketch_id: &str, u: f64, v: f64) -> CreateSessionRequest {
         seed: None,
         lidar_mount: None,
         mcl_observation: None,
+        drawing_localization: None,
     }
 }
 
@@ -411,6 +412,7 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
             seed: None,
             lidar_mount: None,
             mcl_observation: None,
+            drawing_localization: None,
         })
         .unwrap();
     let baseline = reg
@@ -423,6 +425,7 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
             seed: None,
             lidar_mount: None,
             mcl_observation: None,
+            drawing_localization: None,
         })
         .unwrap();
     // The sketch session says which observation model its MCL weighs scans with (the
@@ -432,6 +435,12 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
         Some(sketchslam_api::DrawingObservationModel::RayCast)
     );
     assert_eq!(baseline.mcl_observation, None);
+    // Likewise which localization on the drawing holds its heading.
+    assert_eq!(
+        session.drawing_localization,
+        Some(sketchslam_api::DrawingLocalization::Mcl)
+    );
+    assert_eq!(baseline.drawing_localization, None);
     let id = session.id.clone();
     let ipc = IpcConfig::new(&prefix).unwrap();
     publish_until_processed(&reg, &ipc, "drawn", &id, (0, 20, 0.0), 20);
@@ -498,6 +507,7 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
             seed: None,
             lidar_mount: None,
             mcl_observation: None,
+            drawing_localization: None,
         })
         .unwrap();
     let id = session.id.clone();
@@ -626,6 +636,7 @@ fn fleets_run_side_by_side_within_the_limit() {
         seed: None,
         lidar_mount: None,
         mcl_observation: None,
+        drawing_localization: None,
     };
     let ids: Vec<String> = (0..4)
         .map(|i| reg.create_session(req(&format!("r{i}"))).unwrap().id)

@@ -32,7 +32,7 @@ use anyhow::{Context, Result, bail};
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use sketchslam_engine::localization::observation_model::ObservationModel;
-use sketchslam_engine::mapper::Method;
+use sketchslam_engine::mapper::{Method, SketchHeadingView};
 use sketchslam_simulator::dataset::{DATASET_FILE, Dataset};
 use sketchslam_simulator::generate::{Kind, LidarGrade, generate};
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
@@ -120,6 +120,20 @@ struct Args {
     /// sweep of MCL or of the map does not need it.
     #[arg(long)]
     no_live_warp: bool,
+    /// `sketch` runs: where eq. (5) reads the drawn walls in view, `mcl` (the paper) or
+    /// `warp` (the warp onto the drawing where the map holds it; in-process it needs the
+    /// live warp). Real-process runs ask the session for it (`drawing_localization`).
+    #[arg(long, value_parser = parse_heading_view)]
+    sketch_heading_view: Option<SketchHeadingView>,
+    /// `sketch` runs (in-process only): eq. (5)'s heading gain, 0..1 (0: the drawing does
+    /// not touch the map; the default 0.05 otherwise), to measure what the pull adds.
+    #[arg(long)]
+    sketch_heading_gain: Option<f64>,
+}
+
+fn parse_heading_view(s: &str) -> Result<SketchHeadingView, String> {
+    serde_json::from_value(serde_json::Value::String(s.to_string()))
+        .map_err(|_| format!("{s:?}: mcl or warp"))
 }
 
 fn parse_observation(s: &str) -> Result<ObservationModel, String> {
@@ -160,6 +174,22 @@ fn main() -> Result<()> {
         }
         for m in &mut methods {
             m.mcl_observation = model;
+        }
+    }
+    if let Some(view) = args.sketch_heading_view {
+        if view == SketchHeadingView::Warp && args.no_live_warp {
+            bail!("--sketch-heading-view warp reads the live warp: drop --no-live-warp");
+        }
+        for m in &mut methods {
+            m.sketch_heading_view = view;
+        }
+    }
+    if let Some(gain) = args.sketch_heading_gain {
+        if !(in_process && (0.0..=1.0).contains(&gain)) {
+            bail!("--sketch-heading-gain: 0..1, in-process only (add --in-process)");
+        }
+        for m in &mut methods {
+            m.sketch_heading_gain = Some(gain);
         }
     }
     if args.keep_live_warps {
@@ -364,7 +394,7 @@ fn run_one(
         ),
         (Target::Scenario(scenario), false) => run_real_process(
             scenario,
-            method.method,
+            *method,
             sketch_cfg,
             &out_dir,
             args.max_scans,
