@@ -769,7 +769,6 @@ impl Mapper {
 mod tests {
     use super::*;
     use crate::sketch::{Sketch, SketchPose};
-    use sketchslam_types::Point2;
     use sketchslam_types::ScanHeader;
     use std::sync::Arc;
 
@@ -877,27 +876,7 @@ mod tests {
     /// A 10 × 6 m room with a 2 × 1 m pillar, drawn exactly at 0.05 m per pixel, and
     /// the robot's truth on two laps around the pillar, a pose every 0.2 m.
     fn room_and_laps() -> (Sketch, Vec<Pose2>) {
-        let px = |x: f64, y: f64| Point2::new(10.0 + x / 0.05, 130.0 - y / 0.05);
-        let walls = [
-            ((0.0, 0.0), (10.0, 0.0)),
-            ((10.0, 0.0), (10.0, 6.0)),
-            ((10.0, 6.0), (0.0, 6.0)),
-            ((0.0, 6.0), (0.0, 0.0)),
-            ((4.0, 2.5), (6.0, 2.5)),
-            ((6.0, 2.5), (6.0, 3.5)),
-            ((6.0, 3.5), (4.0, 3.5)),
-            ((4.0, 3.5), (4.0, 2.5)),
-        ];
-        let sketch = Sketch {
-            width_px: 220,
-            height_px: 140,
-            strokes: fixedbitset::FixedBitSet::with_capacity(220 * 140),
-            lines: walls
-                .iter()
-                .enumerate()
-                .map(|(i, (a, b))| crate::sketch::SketchLine::new(i, px(a.0, a.1), px(b.0, b.1)))
-                .collect(),
-        };
+        let sketch = sketch_front_end::tests::room();
         let corners: [(f64, f64); 4] = [(2.0, 1.5), (8.0, 1.5), (8.0, 4.5), (2.0, 4.5)];
         let mut truth = Vec::new();
         for lap in 0..2 {
@@ -958,17 +937,7 @@ mod tests {
                 y_m: odom_pose.y,
                 theta_rad: odom_pose.heading_rad,
             });
-            let fov = 270f64.to_radians();
-            let ranges: Vec<f32> = (0..271)
-                .map(|i| {
-                    let a = t.heading_rad - fov / 2.0 + i as f64 * fov / 270.0;
-                    let (u, v) = (10.0 + t.x / 0.05, 130.0 - t.y / 0.05);
-                    raycaster
-                        .cast(u, v, a, 300.0)
-                        .map_or(f32::INFINITY, |h| (h.range_px * 0.05) as f32)
-                })
-                .collect();
-            let mut scan = Scan::centred(fov, 0.05, 15.0, ranges);
+            let mut scan = sketch_front_end::tests::scan_at(&raycaster, *t);
             scan.header.stamp_ns = stamp_ns;
             let revision = m.map_revision();
             m.on_scan(&scan);

@@ -272,7 +272,7 @@ impl SketchFrontEnd {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::mapper::frame::ScanFrame;
     use crate::mapping::grid::OccupancyGrid;
@@ -282,7 +282,7 @@ mod tests {
 
     /// A 10 × 6 m room with a 2 × 1 m pillar drawn at 0.05 m per pixel, map point (x, y)
     /// at pixel (10 + x / 0.05, 130 − y / 0.05).
-    fn room() -> Sketch {
+    pub(in crate::mapper) fn room() -> Sketch {
         let px = |x: f64, y: f64| Point2::new(10.0 + x / 0.05, 130.0 - y / 0.05);
         let walls = [
             ((0.0, 0.0), (10.0, 0.0)),
@@ -306,9 +306,9 @@ mod tests {
         }
     }
 
-    /// The scan of a 270° LiDAR at map pose `at` in [`room`].
-    fn scan_at(sketch: &Sketch, at: Pose2) -> Scan {
-        let raycaster = SketchRaycaster::new(sketch);
+    /// The scan of a 270° LiDAR (271 beams, 15 m) at map pose `at` in [`room`], ray-cast
+    /// by `raycaster` on it.
+    pub(in crate::mapper) fn scan_at(raycaster: &SketchRaycaster, at: Pose2) -> Scan {
         let fov = 270f64.to_radians();
         let ranges = (0..271)
             .map(|i| {
@@ -342,7 +342,7 @@ mod tests {
             start: far_start,
         };
         let mut front_end = SketchFrontEnd::new(prior, &config).unwrap();
-        let scan = scan_at(&sketch, truth);
+        let scan = scan_at(&SketchRaycaster::new(&sketch), truth);
         let frame = ScanFrame::new(&scan).unwrap();
         let predicted = Pose2::new(truth.x, truth.y, 6f64.to_radians());
         let grid = OccupancyGrid::new(config.grid);
