@@ -43,10 +43,11 @@ pub enum SketchHeadingView {
     Mcl,
     /// The predicted map pose carried onto the drawing through the warp W fitted to the
     /// map (once a fit is in effect, [`super::Mapper::warp_request`]): the walls in view are
-    /// picked where the map says the robot is, and the drawn directions are read turned by
-    /// W's local rotation. W is read where the map's walls do not hold it yet too (its
-    /// extrapolation): eq. (4) keeps only the drawn walls the scan really sees from there.
-    /// MCL's trusted estimate before the first fit takes effect.
+    /// picked where the map says the robot is; the heading on the drawing is the map's (the
+    /// map frame's axes are the drawing's, as with MCL's view). W is read where the map's
+    /// walls do not hold it yet too (its extrapolation): eq. (4) keeps only the drawn walls
+    /// the scan really sees from there. MCL's trusted estimate before the first fit takes
+    /// effect.
     Warp,
 }
 

@@ -366,8 +366,9 @@ impl Mapper {
     }
 
     /// `predicted` (the LiDAR's map pose) on the drawing through the fit in effect (held
-    /// by the map's walls there or extrapolated), for eq. (5) with
-    /// [`SketchHeadingView::Warp`]; `None` otherwise.
+    /// by the map's walls there or extrapolated), with the predicted map heading as the
+    /// heading on the drawing, for eq. (5) with [`SketchHeadingView::Warp`]; `None`
+    /// otherwise.
     fn drawing_view(&self, predicted: &Pose2) -> Option<SketchPose> {
         if self.config.sketch_heading_view != SketchHeadingView::Warp {
             return None;
@@ -377,7 +378,13 @@ impl Mapper {
             Some(b) => warp.pose_at_fit(b.closer.poses(), predicted),
             None => *predicted,
         };
-        Some(warp.warp().pose_on_drawing(&at_fit))
+        // W gives the position on the drawing only: the drawn walls run the right way in
+        // the drawing's own axes, which are the map's (the paper's premise); W's local
+        // rotation is the drawing's distortion, and following it broke more maps (README).
+        Some(SketchPose {
+            heading_rad: predicted.heading_rad,
+            ..warp.warp().pose_on_drawing(&at_fit)
+        })
     }
 
     /// `sketch` sessions: the map to fit the warp onto the drawing to, when a fit is due

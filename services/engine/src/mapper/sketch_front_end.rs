@@ -189,9 +189,9 @@ impl SketchFrontEnd {
         let mut delta_rad = None;
         let mut scan_lines = None;
         // With a view through the warp fitted to the map, the walls in view are those seen
-        // from W's pose and the drawn directions are read turned by W's local rotation.
-        // Without, only a sound localization on the drawing picks the right lines: a lost
-        // MCL pairs scan walls with the wrong sketch walls and would steer the heading.
+        // from where W puts the robot. Without, only a sound localization on the drawing
+        // picks the right lines: a lost MCL pairs scan walls with the wrong sketch walls and
+        // would steer the heading.
         let from_warp = input.drawing_view.map(|view| {
             let in_view = observe_lines(&view, scan, &self.raycaster, &self.observation);
             (view, observed_indices(&in_view))
