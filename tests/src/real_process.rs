@@ -23,16 +23,16 @@ use crate::session_request::{baseline_session, sketch_session};
 use crate::sketch_truth::{fill_sketch_pose_scores, score_published_poses};
 use anyhow::{Context, Result, bail};
 use sketchslam_api::{
-    ClientError, CreateSessionRequest, DrawingLocalization, DrawingPointOut, LidarMount,
-    MAX_TRANSFORM_POINTS, MapPointIn, SessionEvent, SketchPoseInfo, SketchslamClient,
-    TrajectoryPointInfo, TransformRequest,
+    ClientError, CreateSessionRequest, DrawingPointOut, LidarMount, MAX_TRANSFORM_POINTS,
+    MapPointIn, SessionEvent, SketchPoseInfo, SketchslamClient, TrajectoryPointInfo,
+    TransformRequest,
 };
 use sketchslam_engine::mapper::{Method, SketchHeadingView};
 use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
 use sketchslam_simulator::simulation::Simulation;
 use sketchslam_simulator::world::World;
-use sketchslam_slam::method::api_method;
+use sketchslam_slam::method::{api_drawing_localization, api_method};
 use sketchslam_types::Pose2;
 use sketchslam_types::trajectory_csv::{self, NumberFormat};
 use std::path::Path;
@@ -221,10 +221,7 @@ pub fn map_through_processes(
     let request = CreateSessionRequest {
         lidar_mount: (mount != Pose2::IDENTITY).then(|| LidarMount::from_pose(mount)),
         drawing_localization: (method == Method::Sketch && view != SketchHeadingView::default())
-            .then_some(match view {
-                SketchHeadingView::Mcl => DrawingLocalization::Mcl,
-                SketchHeadingView::Warp => DrawingLocalization::Warp,
-            }),
+            .then(|| api_drawing_localization(view)),
         ..request
     };
     let session = runtime.block_on(client.create_session(&request))?;

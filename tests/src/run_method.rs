@@ -105,15 +105,8 @@ impl FromStr for RunMethod {
             ));
         }
         Ok(RunMethod {
-            method,
             loop_closure,
-            lidar_mount: Pose2::IDENTITY,
-            frame_turn_rad: 0.0,
-            keep_live_warps: false,
-            live_warp: true,
-            mcl_observation: ObservationModel::default(),
-            sketch_heading_view: SketchHeadingView::default(),
-            sketch_heading_gain: None,
+            ..RunMethod::from(method)
         })
     }
 }

@@ -11,18 +11,20 @@ use std::sync::{Arc, Mutex};
 
 use axum::body::Bytes;
 use sketchslam_api::{
-    ApiError, Backend, CreateSessionRequest, DrawingLocalization, DrawingObservationModel,
-    EventSubscription, MapFrame, MappingMethod, OccupancyGridResponse, PoseResponse,
-    RegistrationInfo, SessionInfo, SessionState, SketchInMapResponse, SketchInfo, SketchSummary,
-    SketchTrajectoryResponse, SketchUpload, StopReason, TaggedPng, TrajectoryResponse,
-    TransformRequest, TransformResponse,
+    ApiError, Backend, CreateSessionRequest, EventSubscription, MapFrame, MappingMethod,
+    OccupancyGridResponse, PoseResponse, RegistrationInfo, SessionInfo, SessionState,
+    SketchInMapResponse, SketchInfo, SketchSummary, SketchTrajectoryResponse, SketchUpload,
+    StopReason, TaggedPng, TrajectoryResponse, TransformRequest, TransformResponse,
 };
 use sketchslam_ipc::IpcConfig;
 
 use super::RuntimeError;
 use super::codec::{no_drawing, occupancy_response, stored_occupancy, stored_trajectory_response};
 use super::config::RegistryConfig;
-use super::method::engine_method;
+use super::method::{
+    api_drawing_localization, api_observation, engine_heading_view, engine_method,
+    engine_observation,
+};
 use super::metrics::{Histogram, RunningSession, render_metrics};
 use super::process_stats::ProcessStats;
 use super::registration_codec::{not_registered, registration_from_info, transform_response};
@@ -31,8 +33,6 @@ use super::sketch_store::SketchStore;
 use super::storage::{SessionMeta, Storage};
 use super::vda5050::StartedSession;
 use sketchslam_engine::EngineError;
-use sketchslam_engine::localization::observation_model::ObservationModel;
-use sketchslam_engine::mapper::SketchHeadingView;
 use sketchslam_engine::mapper::{Mapper, SketchPrior};
 use sketchslam_engine::sketch::SketchPose;
 use tokio::sync::mpsc;
@@ -318,29 +318,16 @@ impl Registry {
             mapper_config.lidar_mount = m.pose();
         }
         if let Some(model) = request.mcl_observation {
-            mapper_config.mcl.observation = match model {
-                DrawingObservationModel::LikelihoodField => ObservationModel::LikelihoodField,
-                DrawingObservationModel::RayCast => ObservationModel::RayCast,
-            };
+            mapper_config.mcl.observation = engine_observation(model);
+        }
+        if let Some(localization) = request.drawing_localization {
+            mapper_config.sketch_heading_view = engine_heading_view(localization);
         }
         // What the session runs, asked for or the service's default (sketch sessions only).
-        let running = match mapper_config.mcl.observation {
-            ObservationModel::LikelihoodField => DrawingObservationModel::LikelihoodField,
-            ObservationModel::RayCast => DrawingObservationModel::RayCast,
-        };
-        let mcl_observation = (request.method == MappingMethod::Sketch).then_some(running);
-        if let Some(view) = request.drawing_localization {
-            mapper_config.sketch_heading_view = match view {
-                DrawingLocalization::Mcl => SketchHeadingView::Mcl,
-                DrawingLocalization::Warp => SketchHeadingView::Warp,
-            };
-        }
-        let drawing_localization = (request.method == MappingMethod::Sketch).then_some(
-            match mapper_config.sketch_heading_view {
-                SketchHeadingView::Mcl => DrawingLocalization::Mcl,
-                SketchHeadingView::Warp => DrawingLocalization::Warp,
-            },
-        );
+        let sketch = request.method == MappingMethod::Sketch;
+        let mcl_observation = sketch.then(|| api_observation(mapper_config.mcl.observation));
+        let drawing_localization =
+            sketch.then(|| api_drawing_localization(mapper_config.sketch_heading_view));
         let mapper = Mapper::new(method, prior, mapper_config).map_err(|e| match e {
             EngineError::InvalidParameter { name, reason } => {
                 ApiError::invalid("invalid_parameter", format!("{name}: {reason}"))

@@ -132,13 +132,17 @@ struct Args {
 }
 
 fn parse_heading_view(s: &str) -> Result<SketchHeadingView, String> {
-    serde_json::from_value(serde_json::Value::String(s.to_string()))
-        .map_err(|_| format!("{s:?}: mcl or warp"))
+    by_wire_name(s, "mcl or warp")
 }
 
 fn parse_observation(s: &str) -> Result<ObservationModel, String> {
+    by_wire_name(s, "likelihood_field or ray_cast")
+}
+
+/// The value of a serde enum whose wire name is `s`; the error names the `expected` ones.
+fn by_wire_name<T: serde::de::DeserializeOwned>(s: &str, expected: &str) -> Result<T, String> {
     serde_json::from_value(serde_json::Value::String(s.to_string()))
-        .map_err(|_| format!("{s:?}: likelihood_field or ray_cast"))
+        .map_err(|_| format!("{s:?}: {expected}"))
 }
 
 /// One run of the plan.

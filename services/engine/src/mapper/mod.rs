@@ -318,8 +318,7 @@ impl Mapper {
         }
         let increment = self.odom_at_fix.between(&odom_now);
         let predicted = self.map_at_fix.compose(&increment);
-        let keyframes = self.keyframe_count();
-        self.warp.before_scan(keyframes);
+        self.warp.before_scan(self.keyframe_count());
         let input = FrontEndInput {
             frame: &frame,
             increment,

@@ -76,8 +76,8 @@ impl WarpSchedule {
     }
 
     /// Before a scan on a map of `keyframes` keyframes: takes the delivered fit into effect
-    /// when its time has come, and returns the fit in effect.
-    pub(super) fn before_scan(&mut self, keyframes: usize) -> Option<&DrawingRegistration> {
+    /// when its time has come.
+    pub(super) fn before_scan(&mut self, keyframes: usize) {
         if self
             .arrived
             .as_ref()
@@ -85,7 +85,6 @@ impl WarpSchedule {
         {
             self.in_effect = self.arrived.take();
         }
-        self.in_effect()
     }
 
     /// The fit the front end reads.
@@ -127,7 +126,8 @@ mod tests {
         assert!(!s.overdue(10));
         s.deliver(Some(fit_at(1)));
         for k in 1..11 {
-            assert!(s.before_scan(k).is_none(), "in effect early at {k}");
+            s.before_scan(k);
+            assert!(s.in_effect().is_none(), "in effect early at {k}");
             assert!(!s.due(k));
         }
         // Asked again at keyframe 11 (after that scan) and answered at once: the fit of
@@ -135,24 +135,30 @@ mod tests {
         assert!(s.due(11));
         s.request(11);
         s.deliver(Some(fit_at(11)));
-        assert_eq!(s.before_scan(11).map(|f| f.keyframes), Some(1));
-        assert_eq!(s.before_scan(20).map(|f| f.keyframes), Some(1));
-        assert_eq!(s.before_scan(21).map(|f| f.keyframes), Some(11));
+        s.before_scan(11);
+        assert_eq!(s.in_effect().map(|f| f.keyframes), Some(1));
+        s.before_scan(20);
+        assert_eq!(s.in_effect().map(|f| f.keyframes), Some(1));
+        s.before_scan(21);
+        assert_eq!(s.in_effect().map(|f| f.keyframes), Some(11));
         s.request(21);
         // Not delivered by keyframe 31: the caller must wait.
         assert!(!s.overdue(30));
         assert!(s.overdue(31));
-        assert_eq!(s.before_scan(31).map(|f| f.keyframes), Some(11));
+        s.before_scan(31);
+        assert_eq!(s.in_effect().map(|f| f.keyframes), Some(11));
         s.deliver(Some(fit_at(21)));
         assert!(!s.overdue(31));
-        assert_eq!(s.before_scan(31).map(|f| f.keyframes), Some(21));
+        s.before_scan(31);
+        assert_eq!(s.in_effect().map(|f| f.keyframes), Some(21));
     }
 
     #[test]
     fn a_failed_fit_is_asked_again_at_the_next_keyframe_and_stray_answers_are_ignored() {
         let mut s = WarpSchedule::default();
         s.deliver(Some(fit_at(3)));
-        assert!(s.before_scan(100).is_none(), "an answer nobody asked for");
+        s.before_scan(100);
+        assert!(s.in_effect().is_none(), "an answer nobody asked for");
         s.request(4);
         s.deliver(None);
         assert!(!s.due(4));
