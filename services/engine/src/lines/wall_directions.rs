@@ -114,6 +114,77 @@ pub fn heading_to_directions(
     (weight >= config.min_support_m && weight > 0.0).then(|| sum / weight)
 }
 
+/// Half width of [`heading_mode_to_directions`]' kernel, radians: a drawn wall's direction
+/// error (a person draws a wall within a degree or two of its neighbours).
+const MODE_KERNEL_RAD: f64 = 2.0 * PI / 180.0;
+
+/// Step of [`heading_mode_to_directions`]' search, radians (an eighth of the kernel).
+const MODE_STEP_RAD: f64 = MODE_KERNEL_RAD / 8.0;
+
+/// The heading correction within `±max_error_rad` that lays the most of the scan's long
+/// lines (robot frame, seen from `heading_rad`) on the drawing's dominant `directions`,
+/// for a heading known only that well (a start marked by hand). Each correction `δ` is
+/// scored `J(δ) = Σ ℓ_j · max(0, 1 − (r_j(δ) / κ)²)`, `r_j(δ)` the line's angle at
+/// `heading_rad + δ` from its nearest direction (wrapped to (−π/2, π/2]), `ℓ_j` its length
+/// and `κ` = 2° a drawn wall's direction error; the best `δ` on a grid of κ/8 is refined by
+/// [`heading_to_directions`] at the kernel's width. `max_error_rad` is clipped to below
+/// half the smallest angle between two directions, where a correction is unambiguous (45°
+/// for a rectangular building). `None` when the best `δ` lays less than
+/// `config.min_support_m` of wall on a direction. Cost O(lines · directions · steps).
+pub fn heading_mode_to_directions(
+    scan_lines: &[ScanLine],
+    heading_rad: f64,
+    directions: &[f64],
+    max_error_rad: f64,
+    config: &DirectionMatchConfig,
+) -> Option<f64> {
+    let long: Vec<&ScanLine> = scan_lines
+        .iter()
+        .filter(|l| l.length_m() >= config.min_line_m)
+        .collect();
+    if long.is_empty() || directions.is_empty() {
+        return None;
+    }
+    let mut min_gap = PI;
+    for (i, a) in directions.iter().enumerate() {
+        for b in &directions[i + 1..] {
+            min_gap = min_gap.min(wrap_half_pi(a - b).abs());
+        }
+    }
+    let reach = max_error_rad.min(0.49 * min_gap).max(0.0);
+    let residual = |line: &ScanLine, delta: f64| -> f64 {
+        let angle = heading_rad + delta + line.angle_rad;
+        directions
+            .iter()
+            .map(|d| wrap_half_pi(d - angle))
+            .min_by(|a, b| a.abs().total_cmp(&b.abs()))
+            .unwrap_or(PI)
+    };
+    let score = |delta: f64| -> f64 {
+        long.iter()
+            .map(|l| {
+                let z = residual(l, delta) / MODE_KERNEL_RAD;
+                l.length_m() * (1.0 - z * z).max(0.0)
+            })
+            .sum()
+    };
+    let steps = (reach / MODE_STEP_RAD).floor() as i64;
+    let (best, _) = (-steps..=steps)
+        .map(|i| i as f64 * MODE_STEP_RAD)
+        .map(|delta| (delta, score(delta)))
+        .fold(
+            (0.0, f64::NEG_INFINITY),
+            |b, c| if c.1 > b.1 { c } else { b },
+        );
+    let refine = DirectionMatchConfig {
+        tolerance_rad: MODE_KERNEL_RAD,
+        ..*config
+    };
+    heading_to_directions(scan_lines, heading_rad + best, directions, &refine)
+        .map(|fine| best + fine)
+        .filter(|delta| delta.abs() <= reach + MODE_KERNEL_RAD)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -139,6 +210,45 @@ mod tests {
         // Horizontal first (200 px against 100 px), then vertical.
         assert!(wrap_half_pi(d[0]).abs() < 1e-9, "{d:?}");
         assert!((d[1] - PI / 2.0).abs() < 1e-9, "{d:?}");
+    }
+
+    #[test]
+    fn a_start_marked_twelve_degrees_off_is_found_from_the_walls() {
+        // The robot really stands at 12° while the mark says 0°: its walls along x and y
+        // run at −12° and 78° in its frame. Beyond [`heading_to_directions`]' 8° tolerance,
+        // within the mode search's reach (±20°).
+        let e = 12f64.to_radians();
+        let along = |angle: f64, len: f64| {
+            let (s, c) = angle.sin_cos();
+            ScanLine::from_endpoints(
+                Point2::new(0.0, 1.0),
+                Point2::new(len * c, 1.0 + len * s),
+                50,
+            )
+            .unwrap()
+        };
+        // Two long walls, a short one, and a 3 m shelf at 25° that no drawing shows.
+        let lines = [
+            along(-e, 5.0),
+            along(PI / 2.0 - e, 3.0),
+            along(0.3, 0.5),
+            along(25f64.to_radians(), 3.0),
+        ];
+        let d = [0.0, PI / 2.0];
+        let config = DirectionMatchConfig::default();
+        assert!(heading_to_directions(&lines, 0.0, &d, &config).is_none());
+        let c = heading_mode_to_directions(&lines, 0.0, &d, 20f64.to_radians(), &config).unwrap();
+        assert!((c - e).abs() < 1e-9, "{}", c.to_degrees());
+        // Outside the reach, or with too little wall, no correction.
+        assert!(heading_mode_to_directions(&lines, 0.0, &d, 8f64.to_radians(), &config).is_none());
+        assert!(
+            heading_mode_to_directions(&lines[2..3], 0.0, &d, 20f64.to_radians(), &config)
+                .is_none()
+        );
+        // Directions 30° apart: the reach shrinks below 15°, where 12° is still unambiguous.
+        let tri = [0.0, 30f64.to_radians()];
+        let c = heading_mode_to_directions(&lines[..1], 0.0, &tri, 20f64.to_radians(), &config);
+        assert!(c.is_some_and(|c| (c - e).abs() < 1e-9), "{c:?}");
     }
 
     #[test]

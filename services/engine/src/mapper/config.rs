@@ -106,6 +106,13 @@ pub struct MapperConfig {
     /// estimate (the paper) or the warp from the map onto the drawing
     /// ([`SketchHeadingView`]).
     pub sketch_heading_view: SketchHeadingView,
+    /// `sketch` sessions: the start heading is read from the first scan's walls against
+    /// the drawing's wall directions, within two standard deviations of the mark's heading
+    /// error (`registration.rotation_error_rad`), and the marked start is turned onto them
+    /// when the reading exceeds `sketch_heading_deadband_rad` (any reading at a gain of 1):
+    /// the turn eq. (5) would make while mapping, bending the map
+    /// ([`super::start_heading`]); false keeps the mark.
+    pub sketch_start_from_walls: bool,
     /// The map frame of a session without a drawing (`odometry`, `icp`, `graph`) is the
     /// robot's start pose turned by this much, radians: at 0 the map's x axis is the
     /// robot's start heading. A measurement knob: how a result depends on the frame's
@@ -141,6 +148,7 @@ impl Default for MapperConfig {
             sketch_heading_gain: 0.05,
             sketch_heading_deadband_rad: 4f64.to_radians(),
             sketch_heading_view: SketchHeadingView::default(),
+            sketch_start_from_walls: true,
             frame_turn_rad: 0.0,
             loop_closure: Some(LoopClosureConfig::default()),
             registration: FitConfig::default(),

@@ -51,6 +51,7 @@ mod lidar_mount;
 mod method;
 mod output;
 mod sketch_front_end;
+mod start_heading;
 mod warp_schedule;
 
 pub use between_scans::blend_stretch;
@@ -78,6 +79,7 @@ use keyframe_icp::KeyframeIcp;
 use nalgebra::Matrix3;
 use sketch_front_end::SketchFrontEnd;
 use sketchslam_types::{Odometry, Point2, Pose2, Scan, SensorEvent};
+use start_heading::StartHeading;
 use std::borrow::Cow;
 use std::sync::Arc;
 use warp_schedule::WarpSchedule;
@@ -85,6 +87,9 @@ use warp_schedule::WarpSchedule;
 /// Seed offset of the heading-prior stage's own random stream (distinct from the front
 /// end's, which is seeded with `MapperConfig::seed` itself).
 const HEADING_PRIOR_SEED_OFFSET: u64 = 0x6865_6164;
+
+/// Seed offset of the start heading's RANSAC stream ([`start_heading`]).
+const START_HEADING_SEED_OFFSET: u64 = 0x7374_6172;
 
 /// The back end of a session: the loop closer and, with a drawing, its heading prior.
 struct BackEnd {
@@ -131,6 +136,12 @@ pub struct Mapper {
     grid: OccupancyGrid,
     /// Map pose of the robot at the start (identity, or the sketch's start heading).
     start_pose: Pose2,
+    /// `sketch` sessions, until the first scan: the start heading's correction from that
+    /// scan's walls ([`start_heading`]).
+    start_heading: Option<StartHeading>,
+    /// The turn the first scan's walls gave the marked start, radians (`None` before the
+    /// first scan, without a reading, or for the other methods).
+    start_turn_rad: Option<f64>,
     /// Where the LiDAR sits on the robot. Every pose below is the LiDAR's: odometry is
     /// carried to it on the way in, and the robot's poses are given out.
     mount: LidarMount,
@@ -227,6 +238,24 @@ impl Mapper {
                 )
             }
         };
+        let start_heading = drawing
+            .as_ref()
+            .filter(|_| method == Method::Sketch && config.sketch_start_from_walls)
+            .map(|p| {
+                // A reading eq. (5) would leave alone (the drawing's own angular error) is
+                // no evidence against the mark.
+                let tolerated_rad = if config.sketch_heading_gain >= 1.0 {
+                    0.0
+                } else {
+                    config.sketch_heading_deadband_rad
+                };
+                StartHeading::new(
+                    &p.sketch.lines,
+                    config.registration.rotation_error_rad,
+                    tolerated_rad,
+                    config.seed.wrapping_add(START_HEADING_SEED_OFFSET),
+                )
+            });
         Ok(Mapper {
             method,
             grid: OccupancyGrid::new(config.grid),
@@ -235,6 +264,8 @@ impl Mapper {
             back_end,
             drawing,
             start_pose,
+            start_heading,
+            start_turn_rad: None,
             mount,
             odom_origin: None,
             odom_now: None,
@@ -312,6 +343,9 @@ impl Mapper {
             self.odom_origin = Some(odom_now);
             self.odom_at_fix = odom_now;
         }
+        if let Some(fix) = self.start_heading.take() {
+            self.turn_start(fix.turn_rad(&frame.points, self.map_at_fix.heading_rad));
+        }
         if self.front_end.reads_map() {
             // A front end aligning against the map must not see the pre-correction one.
             self.refresh_map();
@@ -361,6 +395,22 @@ impl Mapper {
                 report.sketch_pose,
                 DrawingPoseSource::Mcl,
             );
+        }
+    }
+
+    /// Turns the start by `turn_rad` about the map's origin (the robot's start), with the
+    /// poses given out before the first scan: the start heading read from the first
+    /// scan's walls ([`start_heading`]) replaces the marked one before anything is mapped.
+    fn turn_start(&mut self, turn_rad: Option<f64>) {
+        let Some(turn_rad) = turn_rad.filter(|t| t.is_finite() && *t != 0.0) else {
+            return;
+        };
+        let turn = Pose2::new(0.0, 0.0, turn_rad);
+        self.start_turn_rad = Some(turn_rad);
+        self.start_pose = turn.compose(&self.start_pose);
+        self.map_at_fix = turn.compose(&self.map_at_fix);
+        for point in &mut self.trajectory {
+            point.pose = turn.compose(&point.pose);
         }
     }
 
@@ -666,6 +716,13 @@ impl Mapper {
         self.start_pose
     }
 
+    /// `sketch` sessions: how far the first scan's walls turned the marked start heading,
+    /// radians counter-clockwise ([`start_heading`]); `None` before the first scan, when
+    /// the walls could not tell (the mark stands), and for the other methods.
+    pub fn start_turn_rad(&self) -> Option<f64> {
+        self.start_turn_rad
+    }
+
     /// Every pose of the robot so far, one per odometry message and scan, in stamp order
     /// (borrowed as held with the LiDAR at the centre, converted from the LiDAR's otherwise).
     pub fn trajectory(&self) -> Cow<'_, [TrajectoryPoint]> {
@@ -950,6 +1007,67 @@ mod tests {
             after_scan(&mut m, revision);
         }
         (m, truth)
+    }
+
+    /// The map heading of the first pose given out after the first scan of a `sketch`
+    /// session whose start is marked `mark_error_deg` off the robot's heading in
+    /// [`room_and_laps`]' room, and the session's start heading.
+    fn start_heading_deg(mark_error_deg: f64, from_walls: bool) -> (f64, f64) {
+        let (sketch, truth) = room_and_laps();
+        let raycaster = crate::sketch::raycast::SketchRaycaster::new(&sketch);
+        let start = truth[0];
+        let prior = SketchPrior {
+            sketch: Arc::new(sketch),
+            start: SketchPose {
+                u_px: 10.0 + start.x / 0.05,
+                v_px: 130.0 - start.y / 0.05,
+                heading_rad: start.heading_rad + mark_error_deg.to_radians(),
+                meters_per_pixel: 0.05,
+            },
+        };
+        let config = MapperConfig {
+            sketch_start_from_walls: from_walls,
+            ..MapperConfig::default()
+        };
+        let mut m = Mapper::new(Method::Sketch, Some(prior), config).unwrap();
+        m.on_odometry(&Odometry {
+            sequence: 0,
+            stamp_ns: 0,
+            x_m: 0.0,
+            y_m: 0.0,
+            theta_rad: 0.0,
+        });
+        let mut scan = sketch_front_end::tests::scan_at(&raycaster, start);
+        scan.header.stamp_ns = 50_000_000;
+        m.on_scan(&scan);
+        let first = m.trajectory()[0].pose.heading_rad.to_degrees();
+        let turn = m.start_turn_rad().map_or(0.0, f64::to_degrees);
+        let start = m.start_pose().heading_rad.to_degrees();
+        assert!(
+            (start - turn - mark_error_deg).abs() < 1e-9,
+            "{start} {turn}"
+        );
+        (first, start)
+    }
+
+    #[test]
+    fn a_start_marked_off_the_walls_is_turned_onto_them_at_the_first_scan() {
+        // The truth is 0°: the drawn room's walls run along the drawing's axes. A mark
+        // beyond eq. (5)'s deadband (4° at the defaults) is turned onto them.
+        for mark_deg in [-12.0, 8.0] {
+            let (first, start) = start_heading_deg(mark_deg, true);
+            assert!(start.abs() < 0.3, "mark {mark_deg}°: start {start}°");
+            // The pose given out before the scan turned with the start.
+            assert!(first.abs() < 0.3, "mark {mark_deg}°: first pose {first}°");
+        }
+        // Kept within the band, where asked, and where the walls cannot tell (30° is
+        // beyond 2σ of 10°).
+        let (_, within) = start_heading_deg(3.0, true);
+        assert!((within - 3.0).abs() < 1e-9, "{within}");
+        let (_, kept) = start_heading_deg(8.0, false);
+        assert!((kept - 8.0).abs() < 1e-9, "{kept}");
+        let (_, beyond) = start_heading_deg(30.0, true);
+        assert!((beyond - 30.0).abs() < 1e-9, "{beyond}");
     }
 
     #[test]
