@@ -407,6 +407,13 @@ pub struct SessionInfo {
     pub start: Option<SketchStart>,
     /// The scale guess given at the start (method `sketch`).
     pub meters_per_pixel_guess: Option<f64>,
+    /// `sketch` sessions: the start heading the first scan's walls gave, degrees (the
+    /// start's convention), which the map is built from instead of the marked one — read
+    /// against the drawing's wall directions within 20° of the mark. Absent before the
+    /// first scan, when the walls could not tell (the mark stands), and for the other
+    /// methods.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_heading_from_walls_deg: Option<f64>,
     /// Where the session is in its life.
     pub state: SessionState,
     /// Scans fused so far.

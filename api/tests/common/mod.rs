@@ -195,6 +195,7 @@ impl Backend for Fake {
             stop_reason: None,
             lidar_mount: r.lidar_mount,
             checkpoint_unix_ms: None,
+            start_heading_from_walls_deg: None,
             mcl_observation: r.mcl_observation,
             drawing_localization: r.drawing_localization,
         };

@@ -358,6 +358,7 @@ impl Registry {
             mcl_observation,
             drawing_localization,
             checkpoint_unix_ms: None,
+            start_heading_from_walls_deg: None,
         };
         Session::start(info, mapper, self.ipc.clone(), self.histogram.clone())
     }

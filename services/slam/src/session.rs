@@ -596,9 +596,14 @@ fn run_mapper(
                         m.deliver_warp(None);
                     }
                     let on_drawing = warp.as_ref().map(|r| m.pose_on_drawing_through(r));
-                    (m.health(), m.pose(), on_drawing)
+                    // The map frame's axes are the drawing's: the start's map heading is
+                    // its heading on the drawing.
+                    let start_from_walls = m
+                        .start_turn_rad()
+                        .map(|_| m.start_pose().heading_rad.to_degrees());
+                    (m.health(), m.pose(), on_drawing, start_from_walls)
                 }));
-                let (health, pose, on_drawing) = match outcome {
+                let (health, pose, on_drawing, start_from_walls) = match outcome {
                     Ok(v) => v,
                     Err(payload) => {
                         let message = format!("the mapper failed: {}", panic_message(&*payload));
@@ -628,6 +633,7 @@ fn run_mapper(
                     info.loop_closures_rejected = u64::from(health.loop_closures_rejected);
                     info.localization_score = response.localization_score;
                     info.estimated_meters_per_pixel = health.meters_per_pixel;
+                    info.start_heading_from_walls_deg = start_from_walls;
                     let changed = info.state == SessionState::WaitingForData;
                     if changed {
                         info.state = SessionState::Mapping;
