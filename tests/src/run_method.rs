@@ -41,6 +41,12 @@ pub struct RunMethod {
     /// `sketch` runs: eq. (5)'s heading gain (`MapperConfig::sketch_heading_gain`) when
     /// set, the engine's default otherwise. 0 leaves the drawing out of the map.
     pub sketch_heading_gain: Option<f64>,
+    /// `sketch` runs: whether the start heading is read from the first scan's walls
+    /// (`MapperConfig::sketch_start_from_walls`) when set, the engine's default otherwise.
+    pub sketch_start_from_walls: Option<bool>,
+    /// The engine's seed (`MapperConfig::seed`) instead of the scenario's, when set: how
+    /// much a result owes to the random draws (MCL, RANSAC) rather than to the method.
+    pub engine_seed: Option<u64>,
 }
 
 impl From<Method> for RunMethod {
@@ -55,6 +61,8 @@ impl From<Method> for RunMethod {
             mcl_observation: ObservationModel::default(),
             sketch_heading_view: SketchHeadingView::default(),
             sketch_heading_gain: None,
+            sketch_start_from_walls: None,
+            engine_seed: None,
         }
     }
 }
@@ -64,7 +72,7 @@ impl RunMethod {
     pub fn config(&self, seed: u64) -> MapperConfig {
         let defaults = MapperConfig::default();
         MapperConfig {
-            seed,
+            seed: self.engine_seed.unwrap_or(seed),
             mcl: MclConfig {
                 observation: self.mcl_observation,
                 ..defaults.mcl.clone()
@@ -76,6 +84,9 @@ impl RunMethod {
             sketch_heading_gain: self
                 .sketch_heading_gain
                 .unwrap_or(defaults.sketch_heading_gain),
+            sketch_start_from_walls: self
+                .sketch_start_from_walls
+                .unwrap_or(defaults.sketch_start_from_walls),
             ..defaults
         }
     }

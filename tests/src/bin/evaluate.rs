@@ -129,6 +129,22 @@ struct Args {
     /// not touch the map; the default 0.05 otherwise), to measure what the pull adds.
     #[arg(long)]
     sketch_heading_gain: Option<f64>,
+    /// `sketch` runs (in-process only): the start heading from the first scan's walls
+    /// (`walls`, the default) or as marked on the drawing (`mark`).
+    #[arg(long, value_parser = parse_sketch_start)]
+    sketch_start: Option<bool>,
+    /// In-process runs: the engine's seed (MCL, RANSAC) instead of the scenario's, to see
+    /// how much a result owes to the draws.
+    #[arg(long)]
+    engine_seed: Option<u64>,
+}
+
+fn parse_sketch_start(s: &str) -> Result<bool, String> {
+    match s {
+        "walls" => Ok(true),
+        "mark" => Ok(false),
+        _ => Err(format!("{s:?}: walls or mark")),
+    }
 }
 
 fn parse_heading_view(s: &str) -> Result<SketchHeadingView, String> {
@@ -194,6 +210,22 @@ fn main() -> Result<()> {
         }
         for m in &mut methods {
             m.sketch_heading_gain = Some(gain);
+        }
+    }
+    if let Some(from_walls) = args.sketch_start {
+        if !in_process {
+            bail!("--sketch-start: in-process only (add --in-process)");
+        }
+        for m in &mut methods {
+            m.sketch_start_from_walls = Some(from_walls);
+        }
+    }
+    if let Some(seed) = args.engine_seed {
+        if !in_process {
+            bail!("--engine-seed: in-process only (add --in-process)");
+        }
+        for m in &mut methods {
+            m.engine_seed = Some(seed);
         }
     }
     if args.keep_live_warps {
