@@ -444,6 +444,25 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
     let id = session.id.clone();
     let ipc = IpcConfig::new(&prefix).unwrap();
     publish_until_processed(&reg, &ipc, "drawn", &id, (0, 20, 0.0), 20);
+    // Marked within eq. (5)'s deadband of the box's walls (1.1°), the start stands; marked
+    // 12° off, the first scan's walls turn it back onto the drawing's (near 0°).
+    assert_eq!(
+        reg.get_session(&id).unwrap().start_heading_from_walls_deg,
+        None
+    );
+    let mut turned_start = sketch_start(&sketch.id, 66.9, 320.3);
+    turned_start.robot_id = "turned".into();
+    turned_start.start.as_mut().unwrap().heading_deg = 12.0;
+    let turned = reg.create_session(turned_start).unwrap();
+    assert_eq!(turned.start_heading_from_walls_deg, None);
+    publish_until_processed(&reg, &ipc, "turned", &turned.id, (0, 2, 0.0), 2);
+    let read = reg
+        .get_session(&turned.id)
+        .unwrap()
+        .start_heading_from_walls_deg
+        .expect("the walls give the start heading");
+    assert!(read.abs() < 3.0, "start read at {read}°");
+    reg.stop_session(&turned.id).unwrap();
     // One pose on the drawing per stamp of the map-frame trajectory: at the scans MCL's, or
     // the warp's once the session's worker has registered the map.
     let live = reg.sketch_trajectory(&id).unwrap();
