@@ -190,6 +190,17 @@ mod tests {
     use super::*;
     use sketchslam_types::Point2;
 
+    /// A scan wall of `len_m` from (0, 1) at `angle` in the robot frame.
+    fn along(angle: f64, len_m: f64) -> ScanLine {
+        let (s, c) = angle.sin_cos();
+        ScanLine::from_endpoints(
+            Point2::new(0.0, 1.0),
+            Point2::new(len_m * c, 1.0 + len_m * s),
+            50,
+        )
+        .unwrap()
+    }
+
     fn sketch_line(i: usize, a: (f64, f64), b: (f64, f64)) -> SketchLine {
         SketchLine::new(i, Point2::new(a.0, a.1), Point2::new(b.0, b.1))
     }
@@ -218,15 +229,6 @@ mod tests {
         // run at −12° and 78° in its frame. Beyond [`heading_to_directions`]' 8° tolerance,
         // within the mode search's reach (±20°).
         let e = 12f64.to_radians();
-        let along = |angle: f64, len: f64| {
-            let (s, c) = angle.sin_cos();
-            ScanLine::from_endpoints(
-                Point2::new(0.0, 1.0),
-                Point2::new(len * c, 1.0 + len * s),
-                50,
-            )
-            .unwrap()
-        };
         // Two long walls, a short one, and a 3 m shelf at 25° that no drawing shows.
         let lines = [
             along(-e, 5.0),
@@ -256,15 +258,6 @@ mod tests {
         // Walls along x and y seen from a heading believed to be 0 while the robot is
         // really turned by +3°: in its frame the walls run at −3° and 87°.
         let e = 3f64.to_radians();
-        let along = |angle: f64, len: f64| {
-            let (s, c) = angle.sin_cos();
-            ScanLine::from_endpoints(
-                Point2::new(0.0, 1.0),
-                Point2::new(len * c, 1.0 + len * s),
-                50,
-            )
-            .unwrap()
-        };
         let lines = [along(-e, 4.0), along(PI / 2.0 - e, 2.0), along(0.7, 0.5)];
         let d = [0.0, PI / 2.0];
         let c = heading_to_directions(&lines, 0.0, &d, &DirectionMatchConfig::default()).unwrap();

@@ -963,6 +963,20 @@ mod tests {
         (sketch, truth)
     }
 
+    /// The drawn room of [`room_and_laps`] with the start marked at `start` (map pose), its
+    /// heading `mark_error_rad` off.
+    fn room_prior(sketch: Sketch, start: Pose2, mark_error_rad: f64) -> SketchPrior {
+        SketchPrior {
+            sketch: Arc::new(sketch),
+            start: SketchPose {
+                u_px: 10.0 + start.x / 0.05,
+                v_px: 130.0 - start.y / 0.05,
+                heading_rad: start.heading_rad + mark_error_rad,
+                meters_per_pixel: 0.05,
+            },
+        }
+    }
+
     /// Drives a `sketch` mapper with `config` through [`room_and_laps`] (odometry turning
     /// 3° too far per meter: ~8 m of heading drift in two laps); `after_scan` sees the
     /// mapper and the map revision before each scan.
@@ -973,16 +987,7 @@ mod tests {
     ) -> (Mapper, Vec<Pose2>) {
         let (sketch, truth) = room_and_laps();
         let raycaster = crate::sketch::raycast::SketchRaycaster::new(&sketch);
-        let start = truth[0];
-        let prior = SketchPrior {
-            sketch: Arc::new(sketch),
-            start: SketchPose {
-                u_px: 10.0 + start.x / 0.05,
-                v_px: 130.0 - start.y / 0.05,
-                heading_rad: start.heading_rad,
-                meters_per_pixel: 0.05,
-            },
-        };
+        let prior = room_prior(sketch, truth[0], 0.0);
         let mut m = Mapper::new(method, Some(prior), config).unwrap();
         let mut odom_pose = Pose2::IDENTITY;
         for (k, t) in truth.iter().enumerate() {
@@ -1016,15 +1021,7 @@ mod tests {
         let (sketch, truth) = room_and_laps();
         let raycaster = crate::sketch::raycast::SketchRaycaster::new(&sketch);
         let start = truth[0];
-        let prior = SketchPrior {
-            sketch: Arc::new(sketch),
-            start: SketchPose {
-                u_px: 10.0 + start.x / 0.05,
-                v_px: 130.0 - start.y / 0.05,
-                heading_rad: start.heading_rad + mark_error_deg.to_radians(),
-                meters_per_pixel: 0.05,
-            },
-        };
+        let prior = room_prior(sketch, start, mark_error_deg.to_radians());
         let config = MapperConfig {
             sketch_start_from_walls: from_walls,
             ..MapperConfig::default()
