@@ -230,6 +230,13 @@ pub struct CreateSessionRequest {
     /// map's heading (the paper's eq. 5); default `mcl`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub drawing_localization: Option<DrawingLocalization>,
+    /// For `sketch`: read the start heading from the first scan's walls against the
+    /// drawing's wall directions (within 20° of the mark) and map from it when it differs
+    /// from the marked one by more than a drawn wall's error (4°); default false, the mark
+    /// stands. For a mark set by eye on a rectilinear floor; on the Intel Lab's drawings,
+    /// whose walls are not square, it turned a right mark wrong (README).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_heading_from_walls: Option<bool>,
 }
 
 /// Which localization on the drawing picks the drawn walls in view that hold the robot's
@@ -407,11 +414,10 @@ pub struct SessionInfo {
     pub start: Option<SketchStart>,
     /// The scale guess given at the start (method `sketch`).
     pub meters_per_pixel_guess: Option<f64>,
-    /// `sketch` sessions: the start heading the first scan's walls gave, degrees (the
-    /// start's convention), which the map is built from instead of the marked one — read
-    /// against the drawing's wall directions within 20° of the mark. Absent before the
-    /// first scan, when the walls could not tell (the mark stands), and for the other
-    /// methods.
+    /// `sketch` sessions asked for `start_heading_from_walls`: the start heading the first
+    /// scan's walls gave, degrees (the start's convention), which the map is built from
+    /// instead of the marked one. Absent before the first scan, when the walls could not
+    /// tell or agreed with the mark within 4° (the mark stands), and otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub start_heading_from_walls_deg: Option<f64>,
     /// Where the session is in its life.

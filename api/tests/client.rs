@@ -58,6 +58,7 @@ async fn client_covers_every_endpoint() {
         lidar_mount: None,
         mcl_observation: None,
         drawing_localization: None,
+        start_heading_from_walls: None,
     };
     let session = c.create_session(&request).await.unwrap();
     assert_eq!(session.state, SessionState::WaitingForData);

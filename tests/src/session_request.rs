@@ -33,6 +33,7 @@ pub fn sketch_session(
         lidar_mount: None,
         mcl_observation: None,
         drawing_localization: None,
+        start_heading_from_walls: None,
     }
 }
 
@@ -52,5 +53,6 @@ pub fn baseline_session(
         lidar_mount: None,
         mcl_observation: None,
         drawing_localization: None,
+        start_heading_from_walls: None,
     }
 }

@@ -69,6 +69,7 @@ async fn run(data: &std::path::Path) -> Result<()> {
             lidar_mount: None,
             mcl_observation: None,
             drawing_localization: None,
+            start_heading_from_walls: None,
         })
         .await?;
 

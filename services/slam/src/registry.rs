@@ -320,6 +320,9 @@ impl Registry {
         if let Some(model) = request.mcl_observation {
             mapper_config.mcl.observation = engine_observation(model);
         }
+        if let Some(from_walls) = request.start_heading_from_walls {
+            mapper_config.sketch_start_from_walls = from_walls;
+        }
         if let Some(localization) = request.drawing_localization {
             mapper_config.sketch_heading_view = engine_heading_view(localization);
         }

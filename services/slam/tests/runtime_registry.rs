@@ -74,6 +74,7 @@ fn sketch_start(sketch_id: &str, u: f64, v: f64) -> CreateSessionRequest {
         lidar_mount: None,
         mcl_observation: None,
         drawing_localization: None,
+        start_heading_from_walls: None,
     }
 }
 
@@ -413,6 +414,7 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
             lidar_mount: None,
             mcl_observation: None,
             drawing_localization: None,
+            start_heading_from_walls: None,
         })
         .unwrap();
     let baseline = reg
@@ -426,6 +428,7 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
             lidar_mount: None,
             mcl_observation: None,
             drawing_localization: None,
+            start_heading_from_walls: None,
         })
         .unwrap();
     // The sketch session says which observation model its MCL weighs scans with (the
@@ -444,8 +447,8 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
     let id = session.id.clone();
     let ipc = IpcConfig::new(&prefix).unwrap();
     publish_until_processed(&reg, &ipc, "drawn", &id, (0, 20, 0.0), 20);
-    // Marked within eq. (5)'s deadband of the box's walls (1.1°), the start stands; marked
-    // 12° off, the first scan's walls turn it back onto the drawing's (near 0°).
+    // Not asked for, the start stands; asked for and marked 12° off, the first scan's walls
+    // turn it back onto the drawing's (near 0°).
     assert_eq!(
         reg.get_session(&id).unwrap().start_heading_from_walls_deg,
         None
@@ -453,6 +456,7 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
     let mut turned_start = sketch_start(&sketch.id, 66.9, 320.3);
     turned_start.robot_id = "turned".into();
     turned_start.start.as_mut().unwrap().heading_deg = 12.0;
+    turned_start.start_heading_from_walls = Some(true);
     let turned = reg.create_session(turned_start).unwrap();
     assert_eq!(turned.start_heading_from_walls_deg, None);
     publish_until_processed(&reg, &ipc, "turned", &turned.id, (0, 2, 0.0), 2);
@@ -527,6 +531,7 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
             lidar_mount: None,
             mcl_observation: None,
             drawing_localization: None,
+            start_heading_from_walls: None,
         })
         .unwrap();
     let id = session.id.clone();
@@ -656,6 +661,7 @@ fn fleets_run_side_by_side_within_the_limit() {
         lidar_mount: None,
         mcl_observation: None,
         drawing_localization: None,
+        start_heading_from_walls: None,
     };
     let ids: Vec<String> = (0..4)
         .map(|i| reg.create_session(req(&format!("r{i}"))).unwrap().id)

@@ -130,7 +130,7 @@ struct Args {
     #[arg(long)]
     sketch_heading_gain: Option<f64>,
     /// `sketch` runs (in-process only): the start heading from the first scan's walls
-    /// (`walls`, the default) or as marked on the drawing (`mark`).
+    /// (`walls`) or as marked on the drawing (`mark`, the default).
     #[arg(long, value_parser = parse_sketch_start)]
     sketch_start: Option<bool>,
     /// In-process runs: the engine's seed (MCL, RANSAC) instead of the scenario's, to see

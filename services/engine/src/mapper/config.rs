@@ -112,6 +112,11 @@ pub struct MapperConfig {
     /// when the reading exceeds `sketch_heading_deadband_rad` (any reading at a gain of 1):
     /// the turn eq. (5) would make while mapping, bending the map
     /// ([`super::start_heading`]); false keeps the mark.
+    ///
+    /// Off by default, measured 2026-12-05: it fixes paper-env1 C (marked 9.3° off: map
+    /// 0.013–0.065 → 0.006 m over three seeds), but on the Intel Lab, whose drawings' walls
+    /// are not square, it turned person-2's and the CAD plan's hand-set marks by 5.3° and
+    /// 4.2° and person-2's relations went 0.076 → 0.134 m at every seed.
     pub sketch_start_from_walls: bool,
     /// The map frame of a session without a drawing (`odometry`, `icp`, `graph`) is the
     /// robot's start pose turned by this much, radians: at 0 the map's x axis is the
@@ -148,7 +153,7 @@ impl Default for MapperConfig {
             sketch_heading_gain: 0.05,
             sketch_heading_deadband_rad: 4f64.to_radians(),
             sketch_heading_view: SketchHeadingView::default(),
-            sketch_start_from_walls: true,
+            sketch_start_from_walls: false,
             frame_turn_rad: 0.0,
             loop_closure: Some(LoopClosureConfig::default()),
             registration: FitConfig::default(),

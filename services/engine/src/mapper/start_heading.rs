@@ -21,7 +21,10 @@
 //! Measured (README, 2026-12-05): turning every start by its reading improves
 //! paper-env1's maps but redraws paper-env2's and school's, whose maps swing between 0.007
 //! and 0.15 m with a degree of frame or another seed, as often worse as better; turning
-//! only by the excess over the band left paper-env1 C's map bent (0.012 m).
+//! only by the excess over the band left paper-env1 C's map bent (0.012 m). Off by default
+//! (`MapperConfig::sketch_start_from_walls`): on the Intel Lab, whose drawings' walls are
+//! not square, the first scan's walls turned right marks by 4–5° and eq. (5) pulled the map
+//! back (person-2's relations 0.076 → 0.134 m).
 //!
 //! Pure: values in, values out (its RANSAC draws from its own seeded stream).
 
