@@ -10,15 +10,12 @@
 
 use crate::lines::ransac::{RansacConfig, ScanLine, extract_lines};
 use crate::lines::wall_directions::{
-    DirectionMatchConfig, dominant_directions, heading_to_directions,
+    DirectionMatchConfig, MIN_DOMINANT_SHARE, dominant_directions, heading_to_directions,
 };
 use crate::sketch::SketchLine;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use sketchslam_types::{Point2, Pose2};
-
-/// A direction holding less than this share of the drawing's line length is not dominant.
-const MIN_DIRECTION_SHARE: f64 = 0.1;
 
 /// Keyframe heading priors from a drawing's dominant wall directions.
 #[derive(Debug, Clone)]
@@ -35,7 +32,7 @@ impl WallHeadingPrior {
     /// itself.
     pub fn new(lines: &[SketchLine], seed: u64) -> Self {
         Self {
-            directions: dominant_directions(lines, MIN_DIRECTION_SHARE),
+            directions: dominant_directions(lines, MIN_DOMINANT_SHARE),
             ransac: RansacConfig::default(),
             matching: DirectionMatchConfig::default(),
             rng: ChaCha8Rng::seed_from_u64(seed),

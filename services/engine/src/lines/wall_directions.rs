@@ -18,6 +18,10 @@ use crate::sketch::SketchLine;
 use sketchslam_types::wrap_half_pi;
 use std::f64::consts::PI;
 
+/// A direction holding less than this share of a drawing's line length is not dominant
+/// (the keyframe heading prior's and the start heading's [`dominant_directions`]).
+pub const MIN_DOMINANT_SHARE: f64 = 0.1;
+
 /// Half width of the window that gathers a direction's lines, radians.
 const CLUSTER_HALF_WIDTH_RAD: f64 = 7.5 * PI / 180.0;
 
@@ -101,17 +105,22 @@ pub fn heading_to_directions(
         if length_m < config.min_line_m {
             continue;
         }
-        let angle = heading_rad + line.angle_rad;
-        let nearest = directions
-            .iter()
-            .map(|d| wrap_half_pi(d - angle))
-            .min_by(|a, b| a.abs().total_cmp(&b.abs()));
+        let nearest = nearest_direction_rad(directions, heading_rad + line.angle_rad);
         if let Some(r) = nearest.filter(|r| r.abs() <= config.tolerance_rad) {
             sum += length_m * r;
             weight += length_m;
         }
     }
     (weight >= config.min_support_m && weight > 0.0).then(|| sum / weight)
+}
+
+/// The turn from a line at map angle `angle_rad` onto its nearest of `directions`, wrapped
+/// to (−π/2, π/2]; `None` without directions.
+fn nearest_direction_rad(directions: &[f64], angle_rad: f64) -> Option<f64> {
+    directions
+        .iter()
+        .map(|d| wrap_half_pi(d - angle_rad))
+        .min_by(|a, b| a.abs().total_cmp(&b.abs()))
 }
 
 /// Half width of [`heading_mode_to_directions`]' kernel, radians: a drawn wall's direction
@@ -152,18 +161,11 @@ pub fn heading_mode_to_directions(
         }
     }
     let reach = max_error_rad.min(0.49 * min_gap).max(0.0);
-    let residual = |line: &ScanLine, delta: f64| -> f64 {
-        let angle = heading_rad + delta + line.angle_rad;
-        directions
-            .iter()
-            .map(|d| wrap_half_pi(d - angle))
-            .min_by(|a, b| a.abs().total_cmp(&b.abs()))
-            .unwrap_or(PI)
-    };
     let score = |delta: f64| -> f64 {
         long.iter()
             .map(|l| {
-                let z = residual(l, delta) / MODE_KERNEL_RAD;
+                let r = nearest_direction_rad(directions, heading_rad + delta + l.angle_rad);
+                let z = r.unwrap_or(PI) / MODE_KERNEL_RAD;
                 l.length_m() * (1.0 - z * z).max(0.0)
             })
             .sum()

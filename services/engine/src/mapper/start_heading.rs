@@ -30,16 +30,12 @@
 
 use crate::lines::ransac::{RansacConfig, extract_lines};
 use crate::lines::wall_directions::{
-    DirectionMatchConfig, dominant_directions, heading_mode_to_directions,
+    DirectionMatchConfig, MIN_DOMINANT_SHARE, dominant_directions, heading_mode_to_directions,
 };
 use crate::sketch::SketchLine;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use sketchslam_types::Point2;
-
-/// A direction holding less than this share of the drawing's line length is not dominant
-/// (as for the keyframe heading prior).
-const MIN_DIRECTION_SHARE: f64 = 0.1;
 
 /// The mark's heading error searched, in its standard deviations.
 const SEARCH_SIGMAS: f64 = 2.0;
@@ -67,7 +63,7 @@ impl StartHeading {
         seed: u64,
     ) -> Self {
         Self {
-            directions: dominant_directions(lines, MIN_DIRECTION_SHARE),
+            directions: dominant_directions(lines, MIN_DOMINANT_SHARE),
             max_error_rad: SEARCH_SIGMAS * mark_sigma_rad.max(0.0),
             tolerated_rad: tolerated_rad.max(0.0),
             seed,
