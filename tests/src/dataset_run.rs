@@ -207,6 +207,7 @@ pub fn score_dataset_artifacts(
         sketch_pose_p95_m: None,
         sketch_pose_within_1m: None,
         sketch_heading_median_deg: None,
+        sample: None,
         out_dir: out_dir.to_path_buf(),
     })
 }

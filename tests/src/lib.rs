@@ -15,6 +15,7 @@ pub mod replay_floor;
 pub mod run;
 pub mod run_loop;
 pub mod run_method;
+pub mod samples;
 pub mod service_histogram;
 pub mod service_process;
 pub mod session_request;

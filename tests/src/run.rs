@@ -32,7 +32,7 @@ use std::sync::Arc;
 const SEEN_WALL_BEAM_STRIDE: usize = 2;
 
 /// The scores and figures of one run; serialised as one entry of `evaluate --json`.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Default, Serialize)]
 pub struct RunResult {
     /// Scenario name.
     pub scenario: String,
@@ -146,6 +146,9 @@ pub struct RunResult {
     /// hold W (source `warp`), scenarios and datasets alike.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub warp_held: Option<f64>,
+    /// `evaluate --repeat`: which sample of its run this is ([`crate::samples`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sample: Option<usize>,
     /// Where the artifacts are.
     pub out_dir: PathBuf,
 }
@@ -369,6 +372,7 @@ pub fn score_artifacts(out_dir: &Path, truth: &Truth) -> Result<RunResult> {
         live_sketch_pose_within_1m: None,
         mcl_pose_median_m: None,
         mcl_pose_within_1m: None,
+        sample: None,
         out_dir: out_dir.to_path_buf(),
     })
 }

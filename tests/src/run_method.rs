@@ -47,6 +47,10 @@ pub struct RunMethod {
     /// The engine's seed (`MapperConfig::seed`) instead of the scenario's, when set: how
     /// much a result owes to the random draws (MCL, RANSAC) rather than to the method.
     pub engine_seed: Option<u64>,
+    /// `evaluate --repeat`: sample `k` of the run turns the map frame by a further
+    /// [`crate::samples::sample_turn_deg`]`(k)` (methods without a drawing) and adds `k` to
+    /// the engine's seed. 0, the plain run, by default.
+    pub sample: usize,
 }
 
 impl From<Method> for RunMethod {
@@ -63,6 +67,7 @@ impl From<Method> for RunMethod {
             sketch_heading_gain: None,
             sketch_start_from_walls: None,
             engine_seed: None,
+            sample: 0,
         }
     }
 }
@@ -72,14 +77,15 @@ impl RunMethod {
     pub fn config(&self, seed: u64) -> MapperConfig {
         let defaults = MapperConfig::default();
         MapperConfig {
-            seed: self.engine_seed.unwrap_or(seed),
+            seed: self.engine_seed.unwrap_or(seed) + self.sample as u64,
             mcl: MclConfig {
                 observation: self.mcl_observation,
                 ..defaults.mcl.clone()
             },
             loop_closure: defaults.loop_closure.filter(|_| self.loop_closure),
             lidar_mount: self.lidar_mount,
-            frame_turn_rad: self.frame_turn_rad,
+            frame_turn_rad: self.frame_turn_rad
+                + crate::samples::sample_turn_deg(self.sample).to_radians(),
             sketch_heading_view: self.sketch_heading_view,
             sketch_heading_gain: self
                 .sketch_heading_gain
@@ -149,5 +155,20 @@ mod tests {
         );
         assert!("icp-open".parse::<RunMethod>().is_err());
         assert!("nonsense".parse::<RunMethod>().is_err());
+    }
+
+    #[test]
+    fn a_sample_turns_the_frame_and_moves_the_seed() {
+        let mut m = RunMethod::from(Method::Graph);
+        m.frame_turn_rad = 10f64.to_radians();
+        let plain = m.config(3);
+        assert_eq!(plain.seed, 3);
+        assert!((plain.frame_turn_rad - 10f64.to_radians()).abs() < 1e-12);
+        m.sample = 2;
+        let second = m.config(3);
+        assert_eq!(second.seed, 5);
+        assert!((second.frame_turn_rad - 9f64.to_radians()).abs() < 1e-12);
+        m.engine_seed = Some(40);
+        assert_eq!(m.config(3).seed, 42);
     }
 }

@@ -27,6 +27,11 @@
 //! `--frame-turn-deg D` (in-process): the map frame of the methods without a drawing turned
 //! `D` degrees from the robot's start heading, to see how much a result owes to the map's
 //! axes lying along the walls.
+//!
+//! `--repeat N` (in-process): every run N times, sample `k` with the frame turned a further
+//! 0, +1, −1, +2, … degrees (methods without a drawing) and the engine seeded with its seed +
+//! `k`; besides the table of every sample, each run's median, best and worst
+//! ([`sketchslam_tests::samples`]): one run is one draw, and the medians are what compare.
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
@@ -47,6 +52,7 @@ use sketchslam_tests::relations::published_relation_errors;
 use sketchslam_tests::replay_floor::{ReplayFloors, replay_floors};
 use sketchslam_tests::run::{RunResult, run_in_process, run_name};
 use sketchslam_tests::run_method::RunMethod;
+use sketchslam_tests::samples::{samples_table, summarize_samples};
 use std::path::PathBuf;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -137,6 +143,11 @@ struct Args {
     /// how much a result owes to the draws.
     #[arg(long)]
     engine_seed: Option<u64>,
+    /// In-process runs: map every run this many times, sample k with the frame of the
+    /// methods without a drawing turned a further 0, +1, −1, +2, … degrees and the engine's
+    /// seed + k, and print each run's median, best and worst over its samples.
+    #[arg(long, default_value_t = 1)]
+    repeat: usize,
 }
 
 fn parse_sketch_start(s: &str) -> Result<bool, String> {
@@ -228,6 +239,9 @@ fn main() -> Result<()> {
             m.engine_seed = Some(seed);
         }
     }
+    if args.repeat != 1 && !(in_process && args.repeat > 1) {
+        bail!("--repeat: 1 or more samples, in-process only (add --in-process)");
+    }
     if args.keep_live_warps {
         if !in_process {
             bail!("--keep-live-warps: in-process only (add --in-process)");
@@ -260,9 +274,13 @@ fn main() -> Result<()> {
             targets.push(Target::Scenario(world));
         }
     }
+    let samples: Vec<RunMethod> = methods
+        .iter()
+        .flat_map(|&m| (0..args.repeat).map(move |sample| RunMethod { sample, ..m }))
+        .collect();
     let mut plan: Vec<PlannedRun> = Vec::new();
     for target in &targets {
-        for &method in &methods {
+        for &method in &samples {
             if method.method == Method::Sketch {
                 let sketches: Vec<_> = target
                     .sketches()
@@ -304,6 +322,11 @@ fn main() -> Result<()> {
     };
     print_table(&results);
     print_relations(&results, &floors);
+    let sampled = summarize_samples(&results);
+    if args.repeat > 1 {
+        println!();
+        print!("{}", samples_table(&sampled));
+    }
     let generated: Vec<RunResult> = results
         .iter()
         .filter(|r| generated_names.contains(&r.scenario))
@@ -341,7 +364,8 @@ fn main() -> Result<()> {
         keep_worst_artifacts(&args, &generated, &methods);
     }
     if let Some(path) = &args.json {
-        let json = serde_json::json!({ "runs": results, "generated": summaries });
+        let json =
+            serde_json::json!({ "runs": results, "generated": summaries, "samples": sampled });
         std::fs::write(path, serde_json::to_string_pretty(&json)?)?;
         println!("JSON: {}", path.display());
     }
@@ -399,11 +423,15 @@ fn run_one(
     progress: impl FnMut(u64, u64),
 ) -> Result<RunResult> {
     let name = run_name(method, sketch.as_deref());
-    let out_dir = args.out.join(target.name()).join(&name);
+    let mut out_dir = args.out.join(target.name()).join(&name);
+    let sample = (args.repeat > 1).then_some(method.sample);
+    if let Some(k) = sample {
+        out_dir = out_dir.join(format!("sample-{k}"));
+    }
     let sketch_cfg = sketch
         .as_deref()
         .and_then(|n| target.sketches().iter().find(|s| s.name == n));
-    match (target, in_process) {
+    let result = match (target, in_process) {
         (Target::Dataset(dataset), true) => run_dataset_in_process(
             dataset,
             *method,
@@ -436,7 +464,8 @@ fn run_one(
             args.max_scans,
             progress,
         ),
-    }
+    };
+    result.map(|r| RunResult { sample, ..r })
 }
 
 /// The plan one run after the other, with a progress bar each.
@@ -574,6 +603,14 @@ fn num(v: f64, width: usize, decimals: usize) -> String {
     }
 }
 
+/// The method column: the method, and `#k` for sample `k` of `--repeat`.
+fn method_label(r: &RunResult) -> String {
+    match r.sample {
+        Some(k) => format!("{} #{k}", r.method),
+        None => r.method.clone(),
+    }
+}
+
 /// Relation errors of the dataset runs, with the published figures beside.
 fn print_relations(results: &[RunResult], floors: &[(String, ReplayFloors)]) {
     let runs: Vec<&RunResult> = results.iter().filter(|r| r.relations.is_some()).collect();
@@ -593,7 +630,7 @@ fn print_relations(results: &[RunResult], floors: &[(String, ReplayFloors)]) {
         println!(
             "{:<12} {:<9} {:<10} {:>17} {:>17} {:>9}",
             r.scenario,
-            r.method,
+            method_label(r),
             r.sketch.as_deref().unwrap_or("-"),
             pm(r.rel_trans_m, r.rel_trans_sd_m),
             pm(r.rel_rot_deg, r.rel_rot_sd_deg),
@@ -658,10 +695,11 @@ fn print_table(results: &[RunResult]) {
     );
     let opt = |v: Option<f64>, prec: usize| v.map_or("-".to_string(), |v| format!("{v:.prec$}"));
     for r in results {
+        let method = method_label(r);
         println!(
             "{:<12} {:<9} {:<8} {} {:>8} {} {} {:>6} {:>7.1} {:>7.0} {:>8} {:>8} {:>6} {:>7} {:>5} {:>5} {:>5} {:>8} {:>6} {:>6} {:>5} {:>6} {:>8} {:>7} {:>7} {:>6}",
             r.scenario,
-            r.method,
+            method,
             r.sketch.as_deref().unwrap_or("-"),
             num(r.ate_rmse_m, 7, 3),
             opt(r.online_ate_rmse_m, 3),
@@ -689,11 +727,9 @@ fn print_table(results: &[RunResult]) {
         );
     }
     if let Some(r) = results.first() {
-        let root = r
-            .out_dir
-            .parent()
-            .and_then(|p| p.parent())
-            .unwrap_or(&r.out_dir);
+        // OUT/SCENARIO/RUN[/sample-k]
+        let up = if r.sample.is_some() { 3 } else { 2 };
+        let root = r.out_dir.ancestors().nth(up).unwrap_or(&r.out_dir);
         println!(
             "maps (map.pgm + map.yaml) and overlays (overlay.png) under {}",
             root.display()
