@@ -69,6 +69,14 @@ impl Odometry {
     }
 }
 
+impl ScanHeader {
+    /// The bearings the scan covers, radians: one beam's increment per beam (a 360-beam
+    /// scanner 1° apart covers the full turn, a 361-beam one 0.5° apart 180.5°). O(1).
+    pub fn field_of_view_rad(&self) -> f64 {
+        f64::from(self.angle_increment_rad).abs() * f64::from(self.beam_count)
+    }
+}
+
 /// A scan owned in process memory: the header and its ranges in meters.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct Scan {
@@ -170,5 +178,19 @@ mod tests {
         assert_eq!(pts.len(), 2);
         assert!((pts[0].1.y + 1.0).abs() < 1e-6 && pts[0].1.x.abs() < 1e-6);
         assert!((pts[1].1.y - 2.0).abs() < 1e-6 && pts[1].1.x.abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_field_of_view_is_one_increment_per_beam() {
+        let header = |beams: u32, step_deg: f32| ScanHeader {
+            angle_increment_rad: step_deg.to_radians(),
+            beam_count: beams,
+            ..Default::default()
+        };
+        let deg = |h: ScanHeader| h.field_of_view_rad().to_degrees();
+        assert!((deg(header(360, 1.0)) - 360.0).abs() < 1e-3);
+        assert!((deg(header(361, 0.5)) - 180.5).abs() < 1e-3);
+        // A scan listed clockwise covers as much.
+        assert!((deg(header(361, -0.5)) - 180.5).abs() < 1e-3);
     }
 }

@@ -239,7 +239,7 @@ fn main() -> Result<()> {
             m.engine_seed = Some(seed);
         }
     }
-    if args.repeat != 1 && !(in_process && args.repeat > 1) {
+    if args.repeat == 0 || (args.repeat > 1 && !in_process) {
         bail!("--repeat: 1 or more samples, in-process only (add --in-process)");
     }
     if args.keep_live_warps {

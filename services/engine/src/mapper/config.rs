@@ -140,6 +140,20 @@ pub struct MapperConfig {
     pub lidar_mount: Pose2,
 }
 
+impl MapperConfig {
+    /// The heading difference eq. (5) leaves alone, radians: `sketch_heading_deadband_rad`
+    /// (a drawn wall's own angular error), or none with the paper's hard correction
+    /// (`sketch_heading_gain` 1). The `sketch` front end's deadband and the start heading's
+    /// tolerance ([`super::start_heading`]).
+    pub fn sketch_heading_band_rad(&self) -> f64 {
+        if self.sketch_heading_gain >= 1.0 {
+            0.0
+        } else {
+            self.sketch_heading_deadband_rad.max(0.0)
+        }
+    }
+}
+
 impl Default for MapperConfig {
     fn default() -> Self {
         Self {

@@ -244,9 +244,6 @@ impl KeyframeIcp {
             self.route_m += last.position().distance(&guess.position());
         }
         let points = &input.frame.points[..];
-        let header = &input.frame.scan.header;
-        let fov_rad = f64::from(header.angle_increment_rad).abs() * f64::from(header.beam_count);
-        let blind_rad = (std::f64::consts::TAU - fov_rad).max(0.0);
         if points.len() < 10 {
             return unmatched;
         }
@@ -264,6 +261,8 @@ impl KeyframeIcp {
         // recorded in the robust-core issue, not a reason for this change.)
         let stale = moved
             || self.reference.as_ref().is_none_or(|(_, at, _)| {
+                let fov_rad = input.frame.scan.header.field_of_view_rad();
+                let blind_rad = (std::f64::consts::TAU - fov_rad).max(0.0);
                 reference_due(at, &guess, self.scans_since_reference, blind_rad)
             });
         if stale {

@@ -244,15 +244,10 @@ impl Mapper {
             .map(|p| {
                 // A reading eq. (5) would leave alone (the drawing's own angular error) is
                 // no evidence against the mark.
-                let tolerated_rad = if config.sketch_heading_gain >= 1.0 {
-                    0.0
-                } else {
-                    config.sketch_heading_deadband_rad
-                };
                 StartHeading::new(
                     &p.sketch.lines,
                     config.registration.rotation_error_rad,
-                    tolerated_rad,
+                    config.sketch_heading_band_rad(),
                     config.seed.wrapping_add(START_HEADING_SEED_OFFSET),
                 )
             });

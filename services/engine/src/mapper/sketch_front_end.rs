@@ -117,7 +117,7 @@ impl SketchFrontEnd {
             ransac: RansacConfig::default(),
             matcher: KeyframeIcp::new(config),
             heading_gain: config.sketch_heading_gain.clamp(0.0, 1.0),
-            heading_deadband_rad: config.sketch_heading_deadband_rad.max(0.0),
+            heading_deadband_rad: config.sketch_heading_band_rad(),
             sketch: prior.sketch,
         })
     }
