@@ -2,6 +2,7 @@
 //! of leaving them open (`graph-open`: the same front end with no back end), so a table can
 //! show what closing loops adds — or costs.
 
+use sketchslam_engine::back_end::loop_closure::LoopClosureConfig;
 use sketchslam_engine::localization::mcl::MclConfig;
 use sketchslam_engine::localization::observation_model::ObservationModel;
 use sketchslam_engine::mapper::{MapperConfig, Method, SketchHeadingView};
@@ -41,6 +42,10 @@ pub struct RunMethod {
     /// `sketch` runs: eq. (5)'s heading gain (`MapperConfig::sketch_heading_gain`) when
     /// set, the engine's default otherwise. 0 leaves the drawing out of the map.
     pub sketch_heading_gain: Option<f64>,
+    /// `sketch` runs: the keyframes' heading prior from the drawing's wall directions
+    /// (`LoopClosureConfig::heading_prior_sigma_rad`) when set, the engine's default
+    /// otherwise.
+    pub wall_heading_prior_rad: Option<f64>,
     /// `sketch` runs: whether the start heading is read from the first scan's walls
     /// (`MapperConfig::sketch_start_from_walls`) when set, the engine's default otherwise.
     pub sketch_start_from_walls: Option<bool>,
@@ -66,6 +71,7 @@ impl From<Method> for RunMethod {
             sketch_heading_view: SketchHeadingView::default(),
             sketch_heading_gain: None,
             sketch_start_from_walls: None,
+            wall_heading_prior_rad: None,
             engine_seed: None,
             sample: 0,
         }
@@ -82,7 +88,15 @@ impl RunMethod {
                 observation: self.mcl_observation,
                 ..defaults.mcl.clone()
             },
-            loop_closure: defaults.loop_closure.filter(|_| self.loop_closure),
+            loop_closure: defaults
+                .loop_closure
+                .filter(|_| self.loop_closure)
+                .map(|closure| LoopClosureConfig {
+                    heading_prior_sigma_rad: self
+                        .wall_heading_prior_rad
+                        .or(closure.heading_prior_sigma_rad),
+                    ..closure
+                }),
             lidar_mount: self.lidar_mount,
             frame_turn_rad: self.frame_turn_rad
                 + crate::samples::sample_turn_deg(self.sample).to_radians(),
@@ -170,5 +184,18 @@ mod tests {
         assert!((second.frame_turn_rad - 9f64.to_radians()).abs() < 1e-12);
         m.engine_seed = Some(40);
         assert_eq!(m.config(3).seed, 42);
+    }
+
+    #[test]
+    fn a_wall_heading_prior_reaches_the_back_end_and_only_one() {
+        let prior = |m: &RunMethod| m.config(1).loop_closure.map(|c| c.heading_prior_sigma_rad);
+        let mut m: RunMethod = "sketch".parse().unwrap();
+        assert_eq!(prior(&m), Some(None));
+        m.wall_heading_prior_rad = Some(0.03);
+        assert_eq!(prior(&m), Some(Some(0.03)));
+        // Without loop closure there is no back end to hold it.
+        let mut open: RunMethod = "sketch-open".parse().unwrap();
+        open.wall_heading_prior_rad = Some(0.03);
+        assert_eq!(prior(&open), None);
     }
 }

@@ -135,6 +135,11 @@ struct Args {
     /// not touch the map; the default 0.05 otherwise), to measure what the pull adds.
     #[arg(long)]
     sketch_heading_gain: Option<f64>,
+    /// `sketch` runs (in-process only): tie each keyframe's heading to the drawing's
+    /// dominant wall directions with this standard deviation, degrees (the loop closer's
+    /// `heading_prior_sigma_rad`; off by default), to measure what the priors add.
+    #[arg(long)]
+    wall_heading_prior_deg: Option<f64>,
     /// `sketch` runs (in-process only): the start heading from the first scan's walls
     /// (`walls`) or as marked on the drawing (`mark`, the default).
     #[arg(long, value_parser = parse_sketch_start)]
@@ -221,6 +226,14 @@ fn main() -> Result<()> {
         }
         for m in &mut methods {
             m.sketch_heading_gain = Some(gain);
+        }
+    }
+    if let Some(sigma_deg) = args.wall_heading_prior_deg {
+        if !(in_process && sigma_deg > 0.0 && sigma_deg.is_finite()) {
+            bail!("--wall-heading-prior-deg: above 0, in-process only (add --in-process)");
+        }
+        for m in &mut methods {
+            m.wall_heading_prior_rad = Some(sigma_deg.to_radians());
         }
     }
     if let Some(from_walls) = args.sketch_start {
