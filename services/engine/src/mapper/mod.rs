@@ -113,6 +113,7 @@ impl BackEnd {
             .map(|p| {
                 WallHeadingPrior::new(
                     &p.sketch.lines,
+                    config.registration.rotation_error_rad,
                     config.seed.wrapping_add(HEADING_PRIOR_SEED_OFFSET),
                 )
             });
