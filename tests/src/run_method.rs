@@ -43,8 +43,8 @@ pub struct RunMethod {
     /// set, the engine's default otherwise. 0 leaves the drawing out of the map.
     pub sketch_heading_gain: Option<f64>,
     /// `sketch` runs: the keyframes' heading prior from the drawing's wall directions
-    /// (`LoopClosureConfig::heading_prior_sigma_rad`) when set, the engine's default
-    /// otherwise.
+    /// (`LoopClosureConfig::heading_prior_sigma_rad`) when set (0: none), the engine's
+    /// default otherwise.
     pub wall_heading_prior_rad: Option<f64>,
     /// `sketch` runs: whether the start heading is read from the first scan's walls
     /// (`MapperConfig::sketch_start_from_walls`) when set, the engine's default otherwise.
@@ -92,9 +92,11 @@ impl RunMethod {
                 .loop_closure
                 .filter(|_| self.loop_closure)
                 .map(|closure| LoopClosureConfig {
-                    heading_prior_sigma_rad: self
-                        .wall_heading_prior_rad
-                        .or(closure.heading_prior_sigma_rad),
+                    heading_prior_sigma_rad: match self.wall_heading_prior_rad {
+                        Some(sigma_rad) if sigma_rad > 0.0 => Some(sigma_rad),
+                        Some(_) => None,
+                        None => closure.heading_prior_sigma_rad,
+                    },
                     ..closure
                 }),
             lidar_mount: self.lidar_mount,
@@ -190,9 +192,14 @@ mod tests {
     fn a_wall_heading_prior_reaches_the_back_end_and_only_one() {
         let prior = |m: &RunMethod| m.config(1).loop_closure.map(|c| c.heading_prior_sigma_rad);
         let mut m: RunMethod = "sketch".parse().unwrap();
-        assert_eq!(prior(&m), Some(None));
+        let default = LoopClosureConfig::default().heading_prior_sigma_rad;
+        assert!(default.is_some(), "on by default");
+        assert_eq!(prior(&m), Some(default));
         m.wall_heading_prior_rad = Some(0.03);
         assert_eq!(prior(&m), Some(Some(0.03)));
+        // 0 leaves them out.
+        m.wall_heading_prior_rad = Some(0.0);
+        assert_eq!(prior(&m), Some(None));
         // Without loop closure there is no back end to hold it.
         let mut open: RunMethod = "sketch-open".parse().unwrap();
         open.wall_heading_prior_rad = Some(0.03);

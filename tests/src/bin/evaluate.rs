@@ -137,7 +137,8 @@ struct Args {
     sketch_heading_gain: Option<f64>,
     /// `sketch` runs (in-process only): tie each keyframe's heading to the drawing's
     /// dominant wall directions with this standard deviation, degrees (the loop closer's
-    /// `heading_prior_sigma_rad`; off by default), to measure what the priors add.
+    /// `heading_prior_sigma_rad`, 2° by default); 0 leaves the priors out, to measure what
+    /// they add.
     #[arg(long)]
     wall_heading_prior_deg: Option<f64>,
     /// `sketch` runs (in-process only): the start heading from the first scan's walls
@@ -229,8 +230,10 @@ fn main() -> Result<()> {
         }
     }
     if let Some(sigma_deg) = args.wall_heading_prior_deg {
-        if !(in_process && sigma_deg > 0.0 && sigma_deg.is_finite()) {
-            bail!("--wall-heading-prior-deg: above 0, in-process only (add --in-process)");
+        if !(in_process && sigma_deg >= 0.0 && sigma_deg.is_finite()) {
+            bail!(
+                "--wall-heading-prior-deg: 0 (none) or above, in-process only (add --in-process)"
+            );
         }
         for m in &mut methods {
             m.wall_heading_prior_rad = Some(sigma_deg.to_radians());

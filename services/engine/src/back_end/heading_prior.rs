@@ -176,7 +176,10 @@ mod tests {
         walls_seen_from(true_rad, true, true)
     }
 
-    fn drawn(segments: &[((f64, f64), (f64, f64))]) -> Vec<SketchLine> {
+    /// A drawn stroke's two ends, pixels.
+    type Stroke = ((f64, f64), (f64, f64));
+
+    fn drawn(segments: &[Stroke]) -> Vec<SketchLine> {
         segments
             .iter()
             .enumerate()
