@@ -4,6 +4,7 @@
 
 pub mod dataset_run;
 pub mod generated;
+pub mod line_offset;
 pub mod live_warp;
 pub mod loop_audit;
 pub mod metrics;

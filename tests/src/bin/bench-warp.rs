@@ -22,6 +22,8 @@ use sketchslam_engine::registration::{
 use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::dataset::Dataset;
 use sketchslam_simulator::scenario::Scenario;
+use sketchslam_simulator::world::World;
+use sketchslam_tests::line_offset::{line_offsets, wall_faces};
 use sketchslam_tests::metrics::StampedPose;
 use sketchslam_tests::run::read_trajectory_csv;
 use sketchslam_tests::run::sketch_prior;
@@ -29,7 +31,7 @@ use sketchslam_tests::sketch_truth::{
     DrawingTruth, SketchPoseScore, pair_by_stamp, score_sketch_poses,
 };
 use sketchslam_tests::warp_problem_file::{WARP_PROBLEM_FILE, WarpProblemFile};
-use sketchslam_types::Point2;
+use sketchslam_types::{Point2, Pose2};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::Instant;
@@ -80,6 +82,9 @@ struct Row {
     p95_m: Option<f64>,
     within_1m: Option<f64>,
     heading_median_deg: Option<f64>,
+    /// Median offset of the drawing's lines from the truth's walls near the route
+    /// ([`sketchslam_tests::line_offset`]): the floor under `median_m`.
+    line_offset_median_m: Option<f64>,
     /// With `--truth-start`: `E` at the fit found, at the truth, refitted from the truth,
     /// and the refit's median error.
     truth: Option<TruthCheck>,
@@ -134,18 +139,29 @@ fn main() -> Result<()> {
     let mut rows = rows.into_inner().unwrap();
     rows.sort_by(|a, b| a.run.cmp(&b.run));
     println!(
-        "{:<48} {:>7} {:>7} {:>6} {:>6} {:>6} {:>7} {:>6} {:>5} {:>6}",
-        "run", "med m", "p95 m", "≤1m %", "hdg °", "held %", "inliers", "rms px", "cross", "fit s"
+        "{:<48} {:>7} {:>7} {:>6} {:>6} {:>7} {:>6} {:>7} {:>6} {:>5} {:>6}",
+        "run",
+        "med m",
+        "p95 m",
+        "≤1m %",
+        "hdg °",
+        "lines m",
+        "held %",
+        "inliers",
+        "rms px",
+        "cross",
+        "fit s"
     );
     let opt = |v: Option<f64>, prec: usize| v.map_or("-".to_string(), |v| format!("{v:.prec$}"));
     for r in &rows {
         println!(
-            "{:<48} {:>7} {:>7} {:>6} {:>6} {:>6.0} {:>7} {:>6.2} {:>5} {:>6.2}",
+            "{:<48} {:>7} {:>7} {:>6} {:>6} {:>7} {:>6.0} {:>7} {:>6.2} {:>5} {:>6.2}",
             r.run,
             opt(r.median_m, 2),
             opt(r.p95_m, 2),
             opt(r.within_1m.map(|w| 100.0 * w), 0),
             opt(r.heading_median_deg, 1),
+            opt(r.line_offset_median_m, 2),
             100.0 * r.held,
             r.inliers,
             r.rms_px,
@@ -253,6 +269,7 @@ fn score(path: &Path, config: FitConfig, render: bool, truth_start: bool) -> Res
         p95_m: None,
         within_1m: None,
         heading_median_deg: None,
+        line_offset_median_m: None,
         truth: None,
         held,
         inliers: registration.fit.inliers,
@@ -269,11 +286,48 @@ fn score(path: &Path, config: FitConfig, render: bool, truth_start: bool) -> Res
             row.within_1m = Some(s.within_1m);
             row.heading_median_deg = Some(s.heading_median_deg);
         }
+        row.line_offset_median_m = line_offset_median(&file, &problem, &truth, &drawing, config)?;
         if truth_start {
             row.truth = truth_check(&problem, config, warp, &trajectory, &truth, &drawing);
         }
     }
     Ok(Some(row))
+}
+
+/// The median offset of the drawing's lines from the truth's walls near the route
+/// ([`line_offsets`]), at truth poses 1 m of route apart, within 1.5 finest cells of W
+/// (what W's finest grid can follow) and W's last gate; `None` for a world without an image
+/// (a real log's) or a route that sees no drawn wall.
+fn line_offset_median(
+    file: &WarpProblemFile,
+    problem: &WarpProblem,
+    truth: &[StampedPose],
+    drawing: &DrawingTruth,
+    config: FitConfig,
+) -> Result<Option<f64>> {
+    let Ok(scenario) = Scenario::load(&file.scenario_dir) else {
+        return Ok(None);
+    };
+    let world = World::load(&scenario.world.image, scenario.world.resolution_m)?;
+    let mut route: Vec<Pose2> = Vec::new();
+    for t in truth {
+        if route
+            .last()
+            .is_none_or(|last| last.position().distance(&t.pose.position()) >= 1.0)
+        {
+            route.push(t.pose);
+        }
+    }
+    let mut offsets = line_offsets(
+        &wall_faces(&world),
+        drawing,
+        &problem.lines,
+        &route,
+        1.5 * config.spacing_m,
+        config.gate_m,
+    );
+    offsets.sort_by(f64::total_cmp);
+    Ok(offsets.get(offsets.len() / 2).copied())
 }
 
 /// Changes one [`FitConfig`] field, `key=value`.
