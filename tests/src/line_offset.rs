@@ -45,17 +45,6 @@ pub fn wall_faces(world: &World) -> Vec<Point2> {
     faces
 }
 
-/// The nearest point to `p` on the segment `a`–`b`.
-fn nearest_on_segment(p: Point2, a: Point2, b: Point2) -> Point2 {
-    let (dx, dy) = (b.x - a.x, b.y - a.y);
-    let len2 = dx * dx + dy * dy;
-    if len2 == 0.0 {
-        return a;
-    }
-    let s = (((p.x - a.x) * dx + (p.y - a.y) * dy) / len2).clamp(0.0, 1.0);
-    Point2::new(a.x + s * dx, a.y + s * dy)
-}
-
 /// The translation (pixels) that lays `points` (drawing pixels) on `lines`, pairing each point
 /// with its nearest line within `gate_px`; `None` when fewer than [`MIN_MATCHED`] points pair.
 pub fn translation_onto_lines(
@@ -70,7 +59,7 @@ pub fn translation_onto_lines(
             let q = Point2::new(p.x + d.x, p.y + d.y);
             let nearest = lines
                 .iter()
-                .map(|l| nearest_on_segment(q, l.a, l.b))
+                .map(|l| q.nearest_on_segment(l.a, l.b))
                 .min_by(|f, g| q.distance(f).total_cmp(&q.distance(g)));
             if let Some(f) = nearest.filter(|f| q.distance(f) <= gate_px) {
                 sx += f.x - q.x;
@@ -201,19 +190,6 @@ mod tests {
     }
 
     #[test]
-    fn nearest_point_inside_and_beyond_a_segment() {
-        let (a, b) = (Point2::new(0.0, 0.0), Point2::new(10.0, 0.0));
-        assert_eq!(
-            nearest_on_segment(Point2::new(4.0, 3.0), a, b),
-            Point2::new(4.0, 0.0)
-        );
-        assert_eq!(
-            nearest_on_segment(Point2::new(-2.0, 1.0), a, b),
-            Point2::new(0.0, 0.0)
-        );
-    }
-
-    #[test]
     fn the_offset_along_a_route_is_the_drawings_shift_in_meters() {
         // A 10 × 10 m world at 0.1 m per cell, walled round; drawn at 0.1 m per pixel
         // unstretched, so a world point (x, y) lands at u = x / 0.1 + 10, v = 120 − y / 0.1.
@@ -246,9 +222,8 @@ mod tests {
             line(3, (hi, top), (hi, bottom)),
         ];
         let faces = wall_faces(&world);
-        // At the centre and in a corner, 6 m of reach: every pose reads 0.5 m (the faces
-        // outside the walls lie 0.1 m beyond the inner ones and pair with the same lines
-        // within the gate, at a pull outward balanced on opposite walls).
+        // At the centre and in a corner, 6 m of reach: every pose reads 0.5 m (outside the
+        // image is wall, so the border's inner faces are the only ones).
         let route = [Pose2::new(5.0, 5.0, 0.0), Pose2::new(2.0, 2.0, FRAC_PI_2)];
         let offsets = line_offsets(&faces, &truth, &lines, &route, 6.0, 1.0);
         assert_eq!(offsets.len(), 2);

@@ -61,6 +61,19 @@ impl Point2 {
     pub fn norm(&self) -> f64 {
         self.x.hypot(self.y)
     }
+
+    /// The nearest point to `self` on the segment `a`–`b` (`a` itself when they coincide):
+    /// the projection `a + t (b − a)`, `t` clamped to [0, 1].
+    pub fn nearest_on_segment(&self, a: Point2, b: Point2) -> Point2 {
+        let (dx, dy) = (b.x - a.x, b.y - a.y);
+        let len2 = dx * dx + dy * dy;
+        let t = if len2 > 0.0 {
+            (((self.x - a.x) * dx + (self.y - a.y) * dy) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        Point2::new(a.x + t * dx, a.y + t * dy)
+    }
 }
 
 /// A pose in the plane: position in meters and heading in radians, counter-clockwise
@@ -155,6 +168,20 @@ impl Pose2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn nearest_point_inside_and_beyond_a_segment() {
+        let (a, b) = (Point2::new(0.0, 0.0), Point2::new(10.0, 0.0));
+        assert_eq!(
+            Point2::new(4.0, 3.0).nearest_on_segment(a, b),
+            Point2::new(4.0, 0.0)
+        );
+        assert_eq!(
+            Point2::new(-2.0, 1.0).nearest_on_segment(a, b),
+            Point2::new(0.0, 0.0)
+        );
+        assert_eq!(Point2::new(5.0, 5.0).nearest_on_segment(a, a), a);
+    }
 
     #[test]
     fn wrap_half_pi_range() {

@@ -202,14 +202,7 @@ impl Segment {
 
     /// The nearest point of the segment to `p`.
     pub(super) fn foot(&self, p: Point2) -> Point2 {
-        let (dx, dy) = (self.b.x - self.a.x, self.b.y - self.a.y);
-        let len2 = dx * dx + dy * dy;
-        let t = if len2 > 0.0 {
-            (((p.x - self.a.x) * dx + (p.y - self.a.y) * dy) / len2).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        Point2::new(self.a.x + t * dx, self.a.y + t * dy)
+        p.nearest_on_segment(self.a, self.b)
     }
 }
 
