@@ -3,6 +3,7 @@
 //! show what closing loops adds — or costs.
 
 use sketchslam_engine::back_end::loop_closure::LoopClosureConfig;
+use sketchslam_engine::back_end::pose_graph::{OptimizeConfig, Preconditioning};
 use sketchslam_engine::localization::mcl::MclConfig;
 use sketchslam_engine::localization::observation_model::ObservationModel;
 use sketchslam_engine::mapper::{MapperConfig, Method, SketchHeadingView};
@@ -52,6 +53,9 @@ pub struct RunMethod {
     /// The engine's seed (`MapperConfig::seed`) instead of the scenario's, when set: how
     /// much a result owes to the random draws (MCL, RANSAC) rather than to the method.
     pub engine_seed: Option<u64>,
+    /// Methods that close loops: how the pose graph's solves are preconditioned
+    /// (`OptimizeConfig::preconditioning`) when set, the engine's default otherwise.
+    pub preconditioning: Option<Preconditioning>,
     /// `evaluate --repeat`: sample `k` of the run turns the map frame by a further
     /// [`crate::samples::sample_turn_deg`]`(k)` (methods without a drawing) and adds `k` to
     /// the engine's seed. 0, the plain run, by default.
@@ -73,6 +77,7 @@ impl From<Method> for RunMethod {
             sketch_start_from_walls: None,
             wall_heading_prior_rad: None,
             engine_seed: None,
+            preconditioning: None,
             sample: 0,
         }
     }
@@ -96,6 +101,12 @@ impl RunMethod {
                         Some(sigma_rad) if sigma_rad > 0.0 => Some(sigma_rad),
                         Some(_) => None,
                         None => closure.heading_prior_sigma_rad,
+                    },
+                    optimize: OptimizeConfig {
+                        preconditioning: self
+                            .preconditioning
+                            .unwrap_or(closure.optimize.preconditioning),
+                        ..closure.optimize
                     },
                     ..closure
                 }),
@@ -186,6 +197,18 @@ mod tests {
         assert!((second.frame_turn_rad - 9f64.to_radians()).abs() < 1e-12);
         m.engine_seed = Some(40);
         assert_eq!(m.config(3).seed, 42);
+    }
+
+    #[test]
+    fn the_preconditioning_asked_for_reaches_the_pose_graph() {
+        let solve = |m: &RunMethod| m.config(1).loop_closure.map(|c| c.optimize.preconditioning);
+        let mut m: RunMethod = "graph".parse().unwrap();
+        let default = LoopClosureConfig::default().optimize.preconditioning;
+        assert_eq!(solve(&m), Some(default));
+        for asked in [Preconditioning::BlockJacobi, Preconditioning::Chain] {
+            m.preconditioning = Some(asked);
+            assert_eq!(solve(&m), Some(asked));
+        }
     }
 
     #[test]

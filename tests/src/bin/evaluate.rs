@@ -36,6 +36,7 @@
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
+use sketchslam_engine::back_end::pose_graph::Preconditioning;
 use sketchslam_engine::localization::observation_model::ObservationModel;
 use sketchslam_engine::mapper::{Method, SketchHeadingView};
 use sketchslam_simulator::dataset::{DATASET_FILE, Dataset};
@@ -149,6 +150,11 @@ struct Args {
     /// how much a result owes to the draws.
     #[arg(long)]
     engine_seed: Option<u64>,
+    /// In-process runs of the methods that close loops: how the pose graph's solves are
+    /// preconditioned, `block_jacobi` (each node's block alone, the default) or `chain`
+    /// (the odometry chain factored exactly: each Gauss–Newton step solved to the end).
+    #[arg(long, value_parser = parse_preconditioning)]
+    preconditioning: Option<Preconditioning>,
     /// In-process runs: map every run this many times, sample k with the frame of the
     /// methods without a drawing turned a further 0, +1, −1, +2, … degrees and the engine's
     /// seed + k, and print each run's median, best and worst over its samples.
@@ -166,6 +172,10 @@ fn parse_sketch_start(s: &str) -> Result<bool, String> {
 
 fn parse_heading_view(s: &str) -> Result<SketchHeadingView, String> {
     by_wire_name(s, "mcl or warp")
+}
+
+fn parse_preconditioning(s: &str) -> Result<Preconditioning, String> {
+    by_wire_name(s, "chain or block_jacobi")
 }
 
 fn parse_observation(s: &str) -> Result<ObservationModel, String> {
@@ -253,6 +263,14 @@ fn main() -> Result<()> {
         }
         for m in &mut methods {
             m.engine_seed = Some(seed);
+        }
+    }
+    if let Some(preconditioning) = args.preconditioning {
+        if !in_process {
+            bail!("--preconditioning: in-process only (add --in-process)");
+        }
+        for m in &mut methods {
+            m.preconditioning = Some(preconditioning);
         }
     }
     if args.repeat == 0 || (args.repeat > 1 && !in_process) {
