@@ -61,7 +61,7 @@ use crate::scan_matching::correlative::{
     CorrelativeConfig, LikelihoodField, SearchWindow, voxel_filter,
 };
 use crate::scan_matching::icp::{Icp, IcpConfig, IcpMode, IcpResult};
-use crate::scan_matching::motion_prior::{DEFAULT_MIN_POINTS, hold_unmeasured_directions};
+use crate::scan_matching::motion_prior::{DEFAULT_MIN_POINTS, hold_unmeasured_slides};
 use crate::scan_matching::odometry_noise::{OdometryNoise, OdometryPath};
 use nalgebra::{Matrix3, Vector3};
 use sketchslam_types::{Point2, Pose2, wrap_angle};
@@ -130,6 +130,9 @@ pub(super) struct KeyframeIcp {
     guess_noise: Option<OdometryNoise>,
     /// A match farther from the guess than this many of `guess_noise`'s sigmas is refused.
     odometry_gate_sigmas: Option<f64>,
+    /// A degenerate direction is held only where ICP slid along it farther than this many
+    /// of `guess_noise`'s sigmas (`MapperConfig::icp_hold_beyond_sigmas`).
+    hold_beyond_sigmas: Option<f64>,
     scans_since_reference: usize,
     /// The previous scan's points, robot frame (placed at the input's `last_pose`).
     previous_points: Vec<Point2>,
@@ -157,6 +160,7 @@ impl KeyframeIcp {
             field: None,
             guess_noise: config.odometry_noise,
             odometry_gate_sigmas: config.icp_odometry_gate_sigmas,
+            hold_beyond_sigmas: config.icp_hold_beyond_sigmas,
             scans_since_reference: 0,
             previous_points: Vec::new(),
             submap: VecDeque::new(),
@@ -334,7 +338,14 @@ impl KeyframeIcp {
             }
         }
         let pose = match self.min_constraining_points {
-            Some(min_points) => hold_unmeasured_directions(&result, &guess, min_points).pose,
+            Some(min_points) => {
+                // With a bound, only slides the odometry cannot have made are held.
+                let beyond_m = match (self.guess_noise, self.hold_beyond_sigmas) {
+                    (Some(noise), Some(k)) => k * noise.sigma(&input.path).position_m,
+                    _ => 0.0,
+                };
+                hold_unmeasured_slides(&result, &guess, min_points, beyond_m).pose
+            }
             None => result.pose,
         };
         Matched {

@@ -43,6 +43,22 @@ pub struct Held {
 /// eigen-directions of `H` with fewer than `min_points` returns; the heading stays ICP's.
 /// A non-finite prediction leaves ICP's pose.
 pub fn hold_unmeasured_directions(result: &IcpResult, predicted: &Pose2, min_points: f64) -> Held {
+    hold_unmeasured_slides(result, predicted, min_points, 0.0)
+}
+
+/// [`hold_unmeasured_directions`], holding a degenerate direction only where ICP moved the
+/// pose along it farther than `beyond_m` from the prediction: within the odometry's own
+/// error along a direction the scan does not measure, ICP's small moves stand (a hall's
+/// one wall corrects the odometry's scale bias), and a slide the odometry cannot have made
+/// (centimetres per scan, the scan reaching where the reference did not look) is the
+/// prediction's. `beyond_m` = k·σ_t of the odometry over the step
+/// ([`super::odometry_noise`]); 0 holds every degenerate direction.
+pub fn hold_unmeasured_slides(
+    result: &IcpResult,
+    predicted: &Pose2,
+    min_points: f64,
+    beyond_m: f64,
+) -> Held {
     let icp = result.pose;
     if !predicted.is_finite() {
         return Held {
@@ -56,9 +72,10 @@ pub fn hold_unmeasured_directions(result: &IcpResult, predicted: &Pose2, min_poi
     let mut shift = Vector2::zeros();
     let mut directions = 0;
     for k in 0..2 {
-        if eig.eigenvalues[k] < min_points {
-            let v = eig.eigenvectors.column(k).into_owned();
-            shift += v * v.dot(&d);
+        let v = eig.eigenvectors.column(k).into_owned();
+        let slide_m = v.dot(&d);
+        if eig.eigenvalues[k] < min_points && slide_m.abs() > beyond_m {
+            shift += v * slide_m;
             directions += 1;
         }
     }
@@ -94,6 +111,23 @@ mod tests {
         assert_eq!(held.directions, 1);
         assert!((held.pose.x - 10.3).abs() < 1e-12 && (held.pose.y - 2.0).abs() < 1e-12);
         assert_eq!(held.pose.heading_rad, 0.1);
+    }
+
+    #[test]
+    fn only_a_slide_beyond_the_odometrys_error_is_held() {
+        // A corridor along x: ICP moved the pose 0.3 m along it from the prediction.
+        let r = result(Matrix3::from_diagonal(&nalgebra::Vector3::new(
+            3.0, 500.0, 100.0,
+        )));
+        let predicted = Pose2::new(10.3, 2.3, 0.0);
+        // The odometry can be 0.5 m off: ICP's move stands.
+        let kept = hold_unmeasured_slides(&r, &predicted, 20.0, 0.5);
+        assert_eq!(kept.directions, 0);
+        assert_eq!(kept.pose, r.pose);
+        // It can be 0.1 m off: the slide is the prediction's, across stays ICP's.
+        let held = hold_unmeasured_slides(&r, &predicted, 20.0, 0.1);
+        assert_eq!(held.directions, 1);
+        assert!((held.pose.x - 10.3).abs() < 1e-12 && (held.pose.y - 2.0).abs() < 1e-12);
     }
 
     #[test]
