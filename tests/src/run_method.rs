@@ -56,6 +56,14 @@ pub struct RunMethod {
     /// Methods that close loops: how the pose graph's solves are preconditioned
     /// (`OptimizeConfig::preconditioning`) when set, the engine's default otherwise.
     pub preconditioning: Option<Preconditioning>,
+    /// Keyframe ICP of `graph` and `sketch`: hold the odometry's prediction along the
+    /// translation directions faced by fewer returns than this
+    /// (`MapperConfig::icp_min_constraining_points`) when set (0: never), the engine's
+    /// default otherwise.
+    pub icp_hold_min_points: Option<f64>,
+    /// With `icp_hold_min_points`: hold only slides beyond this many sigmas of the
+    /// odometry's error over the step (`MapperConfig::icp_hold_beyond_sigmas`) when set.
+    pub icp_hold_beyond_sigmas: Option<f64>,
     /// `evaluate --repeat`: sample `k` of the run turns the map frame by a further
     /// [`crate::samples::sample_turn_deg`]`(k)` (methods without a drawing) and adds `k` to
     /// the engine's seed. 0, the plain run, by default.
@@ -78,6 +86,8 @@ impl From<Method> for RunMethod {
             wall_heading_prior_rad: None,
             engine_seed: None,
             preconditioning: None,
+            icp_hold_min_points: None,
+            icp_hold_beyond_sigmas: None,
             sample: 0,
         }
     }
@@ -110,6 +120,14 @@ impl RunMethod {
                     },
                     ..closure
                 }),
+            icp_min_constraining_points: match self.icp_hold_min_points {
+                Some(points) if points > 0.0 => Some(points),
+                Some(_) => None,
+                None => defaults.icp_min_constraining_points,
+            },
+            icp_hold_beyond_sigmas: self
+                .icp_hold_beyond_sigmas
+                .or(defaults.icp_hold_beyond_sigmas),
             lidar_mount: self.lidar_mount,
             frame_turn_rad: self.frame_turn_rad
                 + crate::samples::sample_turn_deg(self.sample).to_radians(),
@@ -209,6 +227,24 @@ mod tests {
             m.preconditioning = Some(asked);
             assert_eq!(solve(&m), Some(asked));
         }
+    }
+
+    #[test]
+    fn the_icp_hold_asked_for_reaches_the_front_end() {
+        let hold = |m: &RunMethod| m.config(1).icp_min_constraining_points;
+        let mut m: RunMethod = "graph".parse().unwrap();
+        assert_eq!(
+            hold(&m),
+            MapperConfig::default().icp_min_constraining_points
+        );
+        m.icp_hold_min_points = Some(20.0);
+        assert_eq!(hold(&m), Some(20.0));
+        // 0 takes ICP's pose as it converged.
+        m.icp_hold_min_points = Some(0.0);
+        assert_eq!(hold(&m), None);
+        let beyond = |m: &RunMethod| m.config(1).icp_hold_beyond_sigmas;
+        m.icp_hold_beyond_sigmas = Some(3.0);
+        assert_eq!(beyond(&m), Some(3.0));
     }
 
     #[test]

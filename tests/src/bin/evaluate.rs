@@ -155,6 +155,16 @@ struct Args {
     /// (the odometry chain factored exactly: each Gauss–Newton step solved to the end).
     #[arg(long, value_parser = parse_preconditioning)]
     preconditioning: Option<Preconditioning>,
+    /// In-process runs of `graph` and `sketch`: the keyframe ICP holds the odometry's
+    /// prediction along a translation direction faced by fewer returns than this (a
+    /// corridor's axis; the engine's `icp_min_constraining_points`, off by default); 0:
+    /// never.
+    #[arg(long)]
+    icp_hold_min_points: Option<f64>,
+    /// With `--icp-hold-min-points`: hold only where ICP slid farther than this many
+    /// sigmas of the odometry's error over the step (the engine's `icp_hold_beyond_sigmas`).
+    #[arg(long, requires = "icp_hold_min_points")]
+    icp_hold_beyond_sigmas: Option<f64>,
     /// In-process runs: map every run this many times, sample k with the frame of the
     /// methods without a drawing turned a further 0, +1, −1, +2, … degrees and the engine's
     /// seed + k, and print each run's median, best and worst over its samples.
@@ -271,6 +281,15 @@ fn main() -> Result<()> {
         }
         for m in &mut methods {
             m.preconditioning = Some(preconditioning);
+        }
+    }
+    if let Some(points) = args.icp_hold_min_points {
+        if !in_process || points.is_nan() || points < 0.0 {
+            bail!("--icp-hold-min-points: a count of returns, 0 or more, in-process only");
+        }
+        for m in &mut methods {
+            m.icp_hold_min_points = Some(points);
+            m.icp_hold_beyond_sigmas = args.icp_hold_beyond_sigmas;
         }
     }
     if args.repeat == 0 || (args.repeat > 1 && !in_process) {
