@@ -135,14 +135,15 @@ pub enum Preconditioning {
     Chain,
     /// Each node's 3×3 diagonal block alone: about one CG iteration per node a correction
     /// must travel, so on long routes the capped steps stop short of the optimum and leave
-    /// a loop's correction near its newest node. Still the default (2026-12-06): the loop
-    /// verification was tuned on it, and the converged graph lets through what the
-    /// stopped-short one held local. Measured (`graph`, release, in-process, 30 generated
-    /// worlds, map error median / p90 / worst, completeness worst): block Jacobi 0.014 /
-    /// 0.046 / 0.073, 0.888; chain 0.011 / 0.042 / 0.143, 0.543 (good corridor 26: three
-    /// loops at the route's end, matched against the start's scans that never saw the
-    /// dead end behind them, 0.4–1.3 m off along the corridor, each vouched for by the
-    /// one before, now bend the whole route); paper-env2 0.034 → 0.006 m.
+    /// a loop's correction near its newest node. Still the default (2026-12-06): the
+    /// engine was tuned on it, and with the chain its worst world is worse. Measured
+    /// (`graph`, release, in-process, 30 generated worlds, map error median / p90 / worst,
+    /// completeness worst): block Jacobi 0.014 / 0.046 / 0.073, 0.888; chain 0.011 / 0.042
+    /// / 0.143, 0.543 (good corridor 26: the keyframe ICP slides 2.7 m toward a dead end
+    /// after turning round there, where block Jacobi's run slid 0.4 m and a loop took it
+    /// out; the right loops that come later bend the route around the slide — a draw of
+    /// the front end, not of the solver; README "Generated worlds"); paper-env2 0.034 →
+    /// 0.006 m.
     #[default]
     BlockJacobi,
 }
