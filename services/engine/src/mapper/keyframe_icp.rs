@@ -4,7 +4,10 @@
 //! it, thinned to one point per [`SUBMAP_VOXEL_M`] square), or the previous scan when it was
 //! built, or the map around the robot (`MapperConfig::keyframe_icp_reference`). Optionally
 //! the directions the scan does not measure keep the odometry's prediction
-//! ([`crate::scan_matching::motion_prior`], `MapperConfig::icp_min_constraining_points`).
+//! ([`crate::scan_matching::motion_prior`], `MapperConfig::icp_min_constraining_points`),
+//! where ICP slid farther than the odometry's error over the step allows, or over the stretch
+//! since the last scan ICP placed in every direction (`MapperConfig::icp_hold_over_stretch`:
+//! the odometry dead-reckoned since then, [`DeadReckoning`]).
 //!
 //! Why a submap: one scan's points are dense near the robot and sparse far away, so the
 //! reference normals of a raw scan come from a few close walls and a doorway's handful of
@@ -61,7 +64,9 @@ use crate::scan_matching::correlative::{
     CorrelativeConfig, LikelihoodField, SearchWindow, voxel_filter,
 };
 use crate::scan_matching::icp::{Icp, IcpConfig, IcpMode, IcpResult};
-use crate::scan_matching::motion_prior::{DEFAULT_MIN_POINTS, hold_unmeasured_slides};
+use crate::scan_matching::motion_prior::{
+    DEFAULT_MIN_POINTS, clamp_unmeasured_slides, hold_unmeasured_slides,
+};
 use crate::scan_matching::odometry_noise::{OdometryNoise, OdometryPath};
 use nalgebra::{Matrix3, Vector3};
 use sketchslam_types::{Point2, Pose2, wrap_angle};
@@ -133,6 +138,11 @@ pub(super) struct KeyframeIcp {
     /// A degenerate direction is held only where ICP slid along it farther than this many
     /// of `guess_noise`'s sigmas (`MapperConfig::icp_hold_beyond_sigmas`).
     hold_beyond_sigmas: Option<f64>,
+    /// With `hold_beyond_sigmas`: judge a slide over the stretch since the last scan ICP
+    /// placed in every direction, not over the step (`MapperConfig::icp_hold_over_stretch`).
+    hold_over_stretch: bool,
+    /// The odometry dead-reckoned over that stretch, and the map revision it lies in.
+    reckoning: Option<(DeadReckoning, u64)>,
     scans_since_reference: usize,
     /// The previous scan's points, robot frame (placed at the input's `last_pose`).
     previous_points: Vec<Point2>,
@@ -161,6 +171,8 @@ impl KeyframeIcp {
             guess_noise: config.odometry_noise,
             odometry_gate_sigmas: config.icp_odometry_gate_sigmas,
             hold_beyond_sigmas: config.icp_hold_beyond_sigmas,
+            hold_over_stretch: config.icp_hold_over_stretch,
+            reckoning: None,
             scans_since_reference: 0,
             previous_points: Vec::new(),
             submap: VecDeque::new(),
@@ -215,6 +227,9 @@ impl KeyframeIcp {
             )),
         };
         let Matched { pose, icp } = self.align_pose(input, guess, mode);
+        if self.hold_over_stretch {
+            self.reckon(input, pose, icp.as_ref());
+        }
         let aligned = match icp {
             None => odometry_only(pose),
             Some(icp) => {
@@ -338,20 +353,99 @@ impl KeyframeIcp {
             }
         }
         let pose = match self.min_constraining_points {
-            Some(min_points) => {
+            Some(min_points) => match (self.guess_noise, self.hold_beyond_sigmas) {
+                // Judged over the stretch: the slide from the dead reckoning, cut to
+                // what the odometry can have made over it.
+                (Some(noise), Some(k)) if self.hold_over_stretch => {
+                    let reckoning = self.reckoned(input);
+                    let window_m = k * noise.sigma(&reckoning.path).position_m;
+                    clamp_unmeasured_slides(&result, &reckoning.pose, min_points, window_m).pose
+                }
                 // With a bound, only slides the odometry cannot have made are held.
-                let beyond_m = match (self.guess_noise, self.hold_beyond_sigmas) {
-                    (Some(noise), Some(k)) => k * noise.sigma(&input.path).position_m,
-                    _ => 0.0,
-                };
-                hold_unmeasured_slides(&result, &guess, min_points, beyond_m).pose
-            }
+                (Some(noise), Some(k)) => {
+                    let beyond_m = k * noise.sigma(&input.path).position_m;
+                    hold_unmeasured_slides(&result, &guess, min_points, beyond_m).pose
+                }
+                _ => hold_unmeasured_slides(&result, &guess, min_points, 0.0).pose,
+            },
             None => result.pose,
         };
         Matched {
             pose,
             icp: Some(result),
         }
+    }
+}
+
+/// The odometry carried forward from a pose ICP placed in every direction: where the
+/// robot is if only the wheels are believed since, and how far off that can be.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct DeadReckoning {
+    /// Map frame; its heading is the last scan's (ICP measures the heading even where it
+    /// does not measure a translation), its position the odometry's since the anchor.
+    pose: Pose2,
+    /// What the odometry reported since the anchor (`Σ|Δp|`, `Σ|Δθ|`): the model's
+    /// `σ_t = α₃·D + α₄·Θ` over it is the position's σ over the stretch (a scale bias adds
+    /// up linearly, not as a random walk). The sideways error a heading error makes over a
+    /// step (`σ_θ·D`, which matters at a scan a second) is left out: not measured on the
+    /// generated worlds; on the MIT CSAIL log it changed nothing.
+    path: OdometryPath,
+}
+
+impl DeadReckoning {
+    /// An anchor at `pose`.
+    fn at(pose: Pose2) -> Self {
+        Self {
+            pose,
+            path: OdometryPath::default(),
+        }
+    }
+
+    /// Carried by the robot-frame odometry `increment` (reported over `path`) from a scan
+    /// whose heading was `heading_rad`. O(1).
+    fn then(&self, heading_rad: f64, increment: &Pose2, path: &OdometryPath) -> Self {
+        let from = Pose2::new(self.pose.x, self.pose.y, heading_rad);
+        Self {
+            pose: from.compose(increment),
+            path: OdometryPath {
+                travelled_m: self.path.travelled_m + path.travelled_m,
+                turned_rad: self.path.turned_rad + path.turned_rad,
+            },
+        }
+    }
+}
+
+impl KeyframeIcp {
+    /// The dead reckoning at this scan: the one kept, carried by the scan's odometry
+    /// increment; anchored at the prediction for the first scan and after the back end
+    /// moved the map (the old one lies in the frame before the correction).
+    fn reckoned(&self, input: &FrontEndInput) -> DeadReckoning {
+        match &self.reckoning {
+            Some((r, revision)) if *revision == input.map_revision => {
+                r.then(input.last_pose.heading_rad, &input.increment, &input.path)
+            }
+            // (The prediction carries this step's odometry error: its path counts.)
+            _ => DeadReckoning {
+                pose: input.predicted,
+                path: input.path,
+            },
+        }
+    }
+
+    /// Keeps the dead reckoning for the next scan: re-anchored at `pose` where ICP
+    /// measured every direction of it, carried on otherwise.
+    fn reckon(&mut self, input: &FrontEndInput, pose: Pose2, icp: Option<&IcpResult>) {
+        let min_points = self.min_constraining_points.unwrap_or(DEFAULT_MIN_POINTS);
+        let measured = icp.is_some_and(|r| {
+            let h = r.normal_matrix.fixed_view::<2, 2>(0, 0).into_owned();
+            h.symmetric_eigenvalues().min() >= min_points
+        });
+        let next = if measured {
+            DeadReckoning::at(pose)
+        } else {
+            self.reckoned(input)
+        };
+        self.reckoning = Some((next, input.map_revision));
     }
 }
 

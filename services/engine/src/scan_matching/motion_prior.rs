@@ -37,6 +37,8 @@ pub struct Held {
     pub pose: Pose2,
     /// Directions held (0, 1 or 2).
     pub directions: usize,
+    /// Directions the scan does not measure, held or not (0, 1 or 2).
+    pub unmeasured: usize,
 }
 
 /// The module doc's remapping of `result`'s translation towards `predicted` along the
@@ -59,29 +61,72 @@ pub fn hold_unmeasured_slides(
     min_points: f64,
     beyond_m: f64,
 ) -> Held {
+    remap_unmeasured(result, predicted, min_points, |slide_m| {
+        if slide_m.abs() > beyond_m {
+            slide_m
+        } else {
+            0.0
+        }
+    })
+}
+
+/// [`hold_unmeasured_directions`] against a prediction that may be far off, by
+/// `window_m`: along a degenerate direction ICP's pose is kept within `window_m` of
+/// `reckoned` and brought back to the window's edge where it lies beyond,
+///
+/// `t = t_icp + Σ_{λ_k < min_points} v_k · sign(s_k)·max(0, |s_k| − w)`, `s_k = v_kᵀ(t_odo − t_icp)`.
+///
+/// With `reckoned` the odometry dead-reckoned since the last scan ICP placed in every
+/// direction and `window_m` k·σ of the odometry's error over that stretch
+/// (Thrun's `α₃·D + α₄·Θ`, [`super::odometry_noise`]), ICP's step errors that undo each
+/// other over the stretch stand, and a slide the odometry cannot have made over it is cut
+/// to what it can. `window_m` = 0 is [`hold_unmeasured_directions`]. O(1).
+pub fn clamp_unmeasured_slides(
+    result: &IcpResult,
+    reckoned: &Pose2,
+    min_points: f64,
+    window_m: f64,
+) -> Held {
+    remap_unmeasured(result, reckoned, min_points, |slide_m| {
+        slide_m.signum() * (slide_m.abs() - window_m).max(0.0)
+    })
+}
+
+/// The eigen-directions of `result`'s translation information with fewer than
+/// `min_points` returns, each moved by `shift(s)` of the slide `s = vᵀ(predicted − icp)`
+/// from ICP's pose towards `predicted`; a non-finite prediction leaves ICP's pose.
+fn remap_unmeasured(
+    result: &IcpResult,
+    predicted: &Pose2,
+    min_points: f64,
+    shift_of: impl Fn(f64) -> f64,
+) -> Held {
     let icp = result.pose;
+    let h = result.normal_matrix.fixed_view::<2, 2>(0, 0).into_owned();
+    let eig = h.symmetric_eigen();
+    let unmeasured = eig.eigenvalues.iter().filter(|&&l| l < min_points).count();
     if !predicted.is_finite() {
         return Held {
             pose: icp,
             directions: 0,
+            unmeasured,
         };
     }
-    let h = result.normal_matrix.fixed_view::<2, 2>(0, 0).into_owned();
-    let eig = h.symmetric_eigen();
     let d = Vector2::new(predicted.x - icp.x, predicted.y - icp.y);
     let mut shift = Vector2::zeros();
     let mut directions = 0;
     for k in 0..2 {
         let v = eig.eigenvectors.column(k).into_owned();
-        let slide_m = v.dot(&d);
-        if eig.eigenvalues[k] < min_points && slide_m.abs() > beyond_m {
-            shift += v * slide_m;
+        let moved_m = shift_of(v.dot(&d));
+        if eig.eigenvalues[k] < min_points && moved_m != 0.0 {
+            shift += v * moved_m;
             directions += 1;
         }
     }
     Held {
         pose: Pose2::new(icp.x + shift.x, icp.y + shift.y, icp.heading_rad),
         directions,
+        unmeasured,
     }
 }
 
@@ -128,6 +173,41 @@ mod tests {
         let held = hold_unmeasured_slides(&r, &predicted, 20.0, 0.1);
         assert_eq!(held.directions, 1);
         assert!((held.pose.x - 10.3).abs() < 1e-12 && (held.pose.y - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_slide_beyond_the_stretchs_window_is_cut_to_its_edge() {
+        // A corridor along x; the dead-reckoned pose 0.3 m behind ICP's along it, 0.1 m
+        // to its side.
+        let r = result(Matrix3::from_diagonal(&nalgebra::Vector3::new(
+            3.0, 500.0, 100.0,
+        )));
+        let reckoned = Pose2::new(9.7, 2.1, 0.0);
+        // The odometry can be 0.5 m off over the stretch: ICP's pose stands.
+        let kept = clamp_unmeasured_slides(&r, &reckoned, 20.0, 0.5);
+        assert_eq!(
+            (kept.pose, kept.directions, kept.unmeasured),
+            (r.pose, 0, 1)
+        );
+        // 0.2 m: along the axis ICP's pose comes back to 9.7 + 0.2, across it stays.
+        let cut = clamp_unmeasured_slides(&r, &reckoned, 20.0, 0.2);
+        assert_eq!((cut.directions, cut.unmeasured), (1, 1));
+        assert!((cut.pose.x - 9.9).abs() < 1e-12 && (cut.pose.y - 2.0).abs() < 1e-12);
+        // Ahead instead of behind, the same by symmetry; a zero window holds the
+        // reckoning.
+        let ahead = clamp_unmeasured_slides(&r, &Pose2::new(10.3, 2.1, 0.0), 20.0, 0.2);
+        assert!((ahead.pose.x - 10.1).abs() < 1e-12, "{ahead:?}");
+        let zero = clamp_unmeasured_slides(&r, &reckoned, 20.0, 0.0);
+        assert!((zero.pose.x - 9.7).abs() < 1e-12, "{zero:?}");
+        // A room: nothing unmeasured, nothing moved.
+        let room = result(Matrix3::from_diagonal(&nalgebra::Vector3::new(
+            300.0, 500.0, 100.0,
+        )));
+        let held = clamp_unmeasured_slides(&room, &reckoned, 20.0, 0.0);
+        assert_eq!(
+            (held.pose, held.directions, held.unmeasured),
+            (room.pose, 0, 0)
+        );
     }
 
     #[test]
