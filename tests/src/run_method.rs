@@ -64,6 +64,9 @@ pub struct RunMethod {
     /// With `icp_hold_min_points`: hold only slides beyond this many sigmas of the
     /// odometry's error over the step (`MapperConfig::icp_hold_beyond_sigmas`) when set.
     pub icp_hold_beyond_sigmas: Option<f64>,
+    /// With `icp_hold_beyond_sigmas`: judged over the stretch since the last scan ICP
+    /// placed in every direction (`MapperConfig::icp_hold_over_stretch`) when true.
+    pub icp_hold_over_stretch: bool,
     /// `evaluate --repeat`: sample `k` of the run turns the map frame by a further
     /// [`crate::samples::sample_turn_deg`]`(k)` (methods without a drawing) and adds `k` to
     /// the engine's seed. 0, the plain run, by default.
@@ -88,6 +91,7 @@ impl From<Method> for RunMethod {
             preconditioning: None,
             icp_hold_min_points: None,
             icp_hold_beyond_sigmas: None,
+            icp_hold_over_stretch: false,
             sample: 0,
         }
     }
@@ -128,6 +132,7 @@ impl RunMethod {
             icp_hold_beyond_sigmas: self
                 .icp_hold_beyond_sigmas
                 .or(defaults.icp_hold_beyond_sigmas),
+            icp_hold_over_stretch: self.icp_hold_over_stretch || defaults.icp_hold_over_stretch,
             lidar_mount: self.lidar_mount,
             frame_turn_rad: self.frame_turn_rad
                 + crate::samples::sample_turn_deg(self.sample).to_radians(),
@@ -245,6 +250,9 @@ mod tests {
         let beyond = |m: &RunMethod| m.config(1).icp_hold_beyond_sigmas;
         m.icp_hold_beyond_sigmas = Some(3.0);
         assert_eq!(beyond(&m), Some(3.0));
+        assert!(!m.config(1).icp_hold_over_stretch);
+        m.icp_hold_over_stretch = true;
+        assert!(m.config(1).icp_hold_over_stretch);
     }
 
     #[test]

@@ -165,6 +165,11 @@ struct Args {
     /// sigmas of the odometry's error over the step (the engine's `icp_hold_beyond_sigmas`).
     #[arg(long, requires = "icp_hold_min_points")]
     icp_hold_beyond_sigmas: Option<f64>,
+    /// With `--icp-hold-beyond-sigmas`: judge the slide over the stretch since the last
+    /// scan ICP placed in every direction, against the odometry dead-reckoned since then
+    /// (the engine's `icp_hold_over_stretch`).
+    #[arg(long, requires = "icp_hold_beyond_sigmas")]
+    icp_hold_over_stretch: bool,
     /// In-process runs: map every run this many times, sample k with the frame of the
     /// methods without a drawing turned a further 0, +1, −1, +2, … degrees and the engine's
     /// seed + k, and print each run's median, best and worst over its samples.
@@ -201,6 +206,46 @@ fn by_wire_name<T: serde::de::DeserializeOwned>(s: &str, expected: &str) -> Resu
 /// One run of the plan.
 type PlannedRun = (Target, RunMethod, Option<String>);
 
+/// What a flag's value must be (said in its error) and the test of it.
+type Valid<T> = (&'static str, fn(&T) -> bool);
+
+/// Any value of the flag's type.
+fn any<T>() -> Valid<T> {
+    ("", |_| true)
+}
+
+/// The methods of the run, for flags that only in-process runs can honour (they reach the
+/// engine's configuration, which a service's session request does not carry).
+struct InProcessFlags<'a> {
+    in_process: bool,
+    methods: &'a mut Vec<RunMethod>,
+}
+
+impl InProcessFlags<'_> {
+    /// Applies `flag`'s `value`, when given, to every method with `set`; an error naming the
+    /// flag when the run is not in-process or the value fails `valid`.
+    fn apply<T>(
+        &mut self,
+        flag: &str,
+        value: Option<T>,
+        valid: Valid<T>,
+        set: impl Fn(&mut RunMethod, &T),
+    ) -> Result<()> {
+        let Some(value) = value else {
+            return Ok(());
+        };
+        let (what, test) = valid;
+        if !(self.in_process && test(&value)) {
+            let sep = if what.is_empty() { "" } else { ", " };
+            bail!("{flag}: {what}{sep}in-process only (add --in-process)");
+        }
+        for m in self.methods.iter_mut() {
+            set(m, &value);
+        }
+        Ok(())
+    }
+}
+
 fn main() -> Result<()> {
     let args = Args::parse();
     let mut methods: Vec<RunMethod> = args
@@ -225,14 +270,6 @@ fn main() -> Result<()> {
             m.live_warp = false;
         }
     }
-    if let Some(model) = args.mcl_observation {
-        if !in_process {
-            bail!("--mcl-observation: in-process only (add --in-process)");
-        }
-        for m in &mut methods {
-            m.mcl_observation = model;
-        }
-    }
     if let Some(view) = args.sketch_heading_view {
         if view == SketchHeadingView::Warp && args.no_live_warp {
             bail!("--sketch-heading-view warp reads the live warp: drop --no-live-warp");
@@ -241,57 +278,44 @@ fn main() -> Result<()> {
             m.sketch_heading_view = view;
         }
     }
-    if let Some(gain) = args.sketch_heading_gain {
-        if !(in_process && (0.0..=1.0).contains(&gain)) {
-            bail!("--sketch-heading-gain: 0..1, in-process only (add --in-process)");
-        }
-        for m in &mut methods {
-            m.sketch_heading_gain = Some(gain);
-        }
-    }
-    if let Some(sigma_deg) = args.wall_heading_prior_deg {
-        if !(in_process && sigma_deg >= 0.0 && sigma_deg.is_finite()) {
-            bail!(
-                "--wall-heading-prior-deg: 0 (none) or above, in-process only (add --in-process)"
-            );
-        }
-        for m in &mut methods {
-            m.wall_heading_prior_rad = Some(sigma_deg.to_radians());
-        }
-    }
-    if let Some(from_walls) = args.sketch_start {
-        if !in_process {
-            bail!("--sketch-start: in-process only (add --in-process)");
-        }
-        for m in &mut methods {
-            m.sketch_start_from_walls = Some(from_walls);
-        }
-    }
-    if let Some(seed) = args.engine_seed {
-        if !in_process {
-            bail!("--engine-seed: in-process only (add --in-process)");
-        }
-        for m in &mut methods {
-            m.engine_seed = Some(seed);
-        }
-    }
-    if let Some(preconditioning) = args.preconditioning {
-        if !in_process {
-            bail!("--preconditioning: in-process only (add --in-process)");
-        }
-        for m in &mut methods {
-            m.preconditioning = Some(preconditioning);
-        }
-    }
-    if let Some(points) = args.icp_hold_min_points {
-        if !in_process || points.is_nan() || points < 0.0 {
-            bail!("--icp-hold-min-points: a count of returns, 0 or more, in-process only");
-        }
-        for m in &mut methods {
+    let mut only = InProcessFlags {
+        in_process,
+        methods: &mut methods,
+    };
+    only.apply("--mcl-observation", args.mcl_observation, any(), |m, &o| {
+        m.mcl_observation = o
+    })?;
+    only.apply(
+        "--sketch-heading-gain",
+        args.sketch_heading_gain,
+        ("0..1", |g| (0.0..=1.0).contains(g)),
+        |m, &g| m.sketch_heading_gain = Some(g),
+    )?;
+    only.apply(
+        "--wall-heading-prior-deg",
+        args.wall_heading_prior_deg,
+        ("0 (none) or above", |d| *d >= 0.0 && d.is_finite()),
+        |m, &d| m.wall_heading_prior_rad = Some(d.to_radians()),
+    )?;
+    only.apply("--sketch-start", args.sketch_start, any(), |m, &w| {
+        m.sketch_start_from_walls = Some(w)
+    })?;
+    only.apply("--engine-seed", args.engine_seed, any(), |m, &seed| {
+        m.engine_seed = Some(seed)
+    })?;
+    only.apply("--preconditioning", args.preconditioning, any(), |m, &p| {
+        m.preconditioning = Some(p)
+    })?;
+    only.apply(
+        "--icp-hold-min-points",
+        args.icp_hold_min_points,
+        ("a count of returns, 0 or more", |p| *p >= 0.0),
+        |m, &points| {
             m.icp_hold_min_points = Some(points);
             m.icp_hold_beyond_sigmas = args.icp_hold_beyond_sigmas;
-        }
-    }
+            m.icp_hold_over_stretch = args.icp_hold_over_stretch;
+        },
+    )?;
     if args.repeat == 0 || (args.repeat > 1 && !in_process) {
         bail!("--repeat: 1 or more samples, in-process only (add --in-process)");
     }
