@@ -226,9 +226,11 @@ impl KeyframeIcp {
                 odometry.heading_rad.powi(2),
             )),
         };
-        let Matched { pose, icp } = self.align_pose(input, guess, mode);
-        if self.hold_over_stretch {
-            self.reckon(input, pose, icp.as_ref());
+        // The odometry dead-reckoned to this scan, when the hold is judged over a stretch.
+        let reckoning = self.hold_over_stretch.then(|| self.reckoned(input));
+        let Matched { pose, icp } = self.align_pose(input, guess, mode, reckoning.as_ref());
+        if let Some(carried) = reckoning {
+            self.reckon(input, pose, icp.as_ref(), carried);
         }
         let aligned = match icp {
             None => odometry_only(pose),
@@ -253,8 +255,15 @@ impl KeyframeIcp {
         aligned
     }
 
-    /// [`KeyframeIcp::align`]'s pose and the ICP result it came from.
-    fn align_pose(&mut self, input: &FrontEndInput, guess: Pose2, mode: IcpMode) -> Matched {
+    /// [`KeyframeIcp::align`]'s pose and the ICP result it came from; `reckoning`, the
+    /// odometry dead-reckoned to this scan when the hold is judged over a stretch.
+    fn align_pose(
+        &mut self,
+        input: &FrontEndInput,
+        guess: Pose2,
+        mode: IcpMode,
+        reckoning: Option<&DeadReckoning>,
+    ) -> Matched {
         let unmatched = Matched {
             pose: guess,
             icp: None,
@@ -353,16 +362,15 @@ impl KeyframeIcp {
             }
         }
         let pose = match self.min_constraining_points {
-            Some(min_points) => match (self.guess_noise, self.hold_beyond_sigmas) {
+            Some(min_points) => match (self.guess_noise, self.hold_beyond_sigmas, reckoning) {
                 // Judged over the stretch: the slide from the dead reckoning, cut to
                 // what the odometry can have made over it.
-                (Some(noise), Some(k)) if self.hold_over_stretch => {
-                    let reckoning = self.reckoned(input);
+                (Some(noise), Some(k), Some(reckoning)) => {
                     let window_m = k * noise.sigma(&reckoning.path).position_m;
                     clamp_unmeasured_slides(&result, &reckoning.pose, min_points, window_m).pose
                 }
                 // With a bound, only slides the odometry cannot have made are held.
-                (Some(noise), Some(k)) => {
+                (Some(noise), Some(k), None) => {
                     let beyond_m = k * noise.sigma(&input.path).position_m;
                     hold_unmeasured_slides(&result, &guess, min_points, beyond_m).pose
                 }
@@ -433,17 +441,20 @@ impl KeyframeIcp {
     }
 
     /// Keeps the dead reckoning for the next scan: re-anchored at `pose` where ICP
-    /// measured every direction of it, carried on otherwise.
-    fn reckon(&mut self, input: &FrontEndInput, pose: Pose2, icp: Option<&IcpResult>) {
+    /// measured every direction of it, `carried` (this scan's [`Self::reckoned`]) otherwise.
+    fn reckon(
+        &mut self,
+        input: &FrontEndInput,
+        pose: Pose2,
+        icp: Option<&IcpResult>,
+        carried: DeadReckoning,
+    ) {
         let min_points = self.min_constraining_points.unwrap_or(DEFAULT_MIN_POINTS);
-        let measured = icp.is_some_and(|r| {
-            let h = r.normal_matrix.fixed_view::<2, 2>(0, 0).into_owned();
-            h.symmetric_eigenvalues().min() >= min_points
-        });
+        let measured = icp.is_some_and(|r| r.weakest_direction().1 >= min_points);
         let next = if measured {
             DeadReckoning::at(pose)
         } else {
-            self.reckoned(input)
+            carried
         };
         self.reckoning = Some((next, input.map_revision));
     }
