@@ -135,6 +135,20 @@ mod tests {
     use super::*;
     use nalgebra::Matrix3;
 
+    /// A match in a corridor along x: 3 returns face x, 500 face y.
+    fn corridor() -> IcpResult {
+        result(Matrix3::from_diagonal(&nalgebra::Vector3::new(
+            3.0, 500.0, 100.0,
+        )))
+    }
+
+    /// A match in a room: 300 returns face x, 500 face y.
+    fn room() -> IcpResult {
+        result(Matrix3::from_diagonal(&nalgebra::Vector3::new(
+            300.0, 500.0, 100.0,
+        )))
+    }
+
     fn result(normal_matrix: Matrix3<f64>) -> IcpResult {
         IcpResult {
             pose: Pose2::new(10.0, 2.0, 0.1),
@@ -149,9 +163,7 @@ mod tests {
     #[test]
     fn a_corridor_keeps_the_prediction_along_its_axis_and_icp_across() {
         // A corridor along x: 500 returns face y, 3 face x.
-        let r = result(Matrix3::from_diagonal(&nalgebra::Vector3::new(
-            3.0, 500.0, 100.0,
-        )));
+        let r = corridor();
         let held = hold_unmeasured_directions(&r, &Pose2::new(10.3, 2.3, 0.0), 20.0);
         assert_eq!(held.directions, 1);
         assert!((held.pose.x - 10.3).abs() < 1e-12 && (held.pose.y - 2.0).abs() < 1e-12);
@@ -161,9 +173,7 @@ mod tests {
     #[test]
     fn only_a_slide_beyond_the_odometrys_error_is_held() {
         // A corridor along x: ICP moved the pose 0.3 m along it from the prediction.
-        let r = result(Matrix3::from_diagonal(&nalgebra::Vector3::new(
-            3.0, 500.0, 100.0,
-        )));
+        let r = corridor();
         let predicted = Pose2::new(10.3, 2.3, 0.0);
         // The odometry can be 0.5 m off: ICP's move stands.
         let kept = hold_unmeasured_slides(&r, &predicted, 20.0, 0.5);
@@ -179,9 +189,7 @@ mod tests {
     fn a_slide_beyond_the_stretchs_window_is_cut_to_its_edge() {
         // A corridor along x; the dead-reckoned pose 0.3 m behind ICP's along it, 0.1 m
         // to its side.
-        let r = result(Matrix3::from_diagonal(&nalgebra::Vector3::new(
-            3.0, 500.0, 100.0,
-        )));
+        let r = corridor();
         let reckoned = Pose2::new(9.7, 2.1, 0.0);
         // The odometry can be 0.5 m off over the stretch: ICP's pose stands.
         let kept = clamp_unmeasured_slides(&r, &reckoned, 20.0, 0.5);
@@ -200,9 +208,7 @@ mod tests {
         let zero = clamp_unmeasured_slides(&r, &reckoned, 20.0, 0.0);
         assert!((zero.pose.x - 9.7).abs() < 1e-12, "{zero:?}");
         // A room: nothing unmeasured, nothing moved.
-        let room = result(Matrix3::from_diagonal(&nalgebra::Vector3::new(
-            300.0, 500.0, 100.0,
-        )));
+        let room = room();
         let held = clamp_unmeasured_slides(&room, &reckoned, 20.0, 0.0);
         assert_eq!(
             (held.pose, held.directions, held.unmeasured),
@@ -230,9 +236,7 @@ mod tests {
 
     #[test]
     fn a_room_and_a_bad_prediction_keep_icp() {
-        let r = result(Matrix3::from_diagonal(&nalgebra::Vector3::new(
-            300.0, 500.0, 100.0,
-        )));
+        let r = room();
         let held = hold_unmeasured_directions(&r, &Pose2::new(10.3, 2.3, 0.0), 20.0);
         assert_eq!((held.pose, held.directions), (r.pose, 0));
         let nan = Pose2::new(f64::NAN, 0.0, 0.0);
