@@ -254,14 +254,6 @@ fn main() -> Result<()> {
         .map(|m| m.parse().map_err(anyhow::Error::msg))
         .collect::<Result<_>>()?;
     let in_process = args.in_process || args.generated.is_some();
-    if args.frame_turn_deg != 0.0 {
-        if !(args.frame_turn_deg.is_finite() && in_process) {
-            bail!("--frame-turn-deg: a finite angle, in-process only (add --in-process)");
-        }
-        for m in &mut methods {
-            m.frame_turn_rad = args.frame_turn_deg.to_radians();
-        }
-    }
     if args.no_live_warp {
         if args.keep_live_warps {
             bail!("--no-live-warp and --keep-live-warps: choose one");
@@ -282,6 +274,18 @@ fn main() -> Result<()> {
         in_process,
         methods: &mut methods,
     };
+    only.apply(
+        "--frame-turn-deg",
+        (args.frame_turn_deg != 0.0).then_some(args.frame_turn_deg),
+        ("a finite angle", |d| d.is_finite()),
+        |m, &d| m.frame_turn_rad = d.to_radians(),
+    )?;
+    only.apply(
+        "--keep-live-warps",
+        args.keep_live_warps.then_some(()),
+        any(),
+        |m, _| m.keep_live_warps = true,
+    )?;
     only.apply("--mcl-observation", args.mcl_observation, any(), |m, &o| {
         m.mcl_observation = o
     })?;
@@ -318,14 +322,6 @@ fn main() -> Result<()> {
     )?;
     if args.repeat == 0 || (args.repeat > 1 && !in_process) {
         bail!("--repeat: 1 or more samples, in-process only (add --in-process)");
-    }
-    if args.keep_live_warps {
-        if !in_process {
-            bail!("--keep-live-warps: in-process only (add --in-process)");
-        }
-        for m in &mut methods {
-            m.keep_live_warps = true;
-        }
     }
     if let Some(open) = methods.iter().find(|m| !m.loop_closure && !in_process) {
         bail!("{open}: loops can only be left open in-process (add --in-process)");
