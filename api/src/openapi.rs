@@ -15,9 +15,9 @@ use crate::registration::{
 };
 use crate::types::{
     CreateSessionRequest, DrawingLocalization, DrawingObservationModel, HealthResponse, LidarMount,
-    MappingMethod, PixelPoint, PoseResponse, SessionEvent, SessionInfo, SessionList, SessionState,
-    SketchInfo, SketchLineInfo, SketchList, SketchPoseInfo, SketchPoseSource, SketchStart,
-    SketchSummary, SketchTrajectoryPointInfo, SketchTrajectoryResponse, StopReason,
+    MappingMethod, OdometryNoise, PixelPoint, PoseResponse, SessionEvent, SessionInfo, SessionList,
+    SessionState, SketchInfo, SketchLineInfo, SketchList, SketchPoseInfo, SketchPoseSource,
+    SketchStart, SketchSummary, SketchTrajectoryPointInfo, SketchTrajectoryResponse, StopReason,
     TrajectoryPointInfo, TrajectoryResponse,
 };
 use crate::{registration_routes, router};
@@ -68,7 +68,7 @@ use crate::{registration_routes, router};
         OccupancyGridResponse, MapMetaData, RosHeader, RosTime, RosPose, RosPoint, RosQuaternion,
         PixelPoint, PoseResponse, SessionEvent, SessionInfo,
         SessionList, SessionState, StopReason, SketchInfo, SketchLineInfo, SketchList,
-        SketchPoseInfo, SketchPoseSource, LidarMount, DrawingObservationModel, DrawingLocalization,
+        SketchPoseInfo, SketchPoseSource, LidarMount, OdometryNoise, DrawingObservationModel, DrawingLocalization,
         SketchStart, SketchSummary, SketchTrajectoryPointInfo, SketchTrajectoryResponse,
         TrajectoryPointInfo, TrajectoryResponse, RegistrationInfo, WarpInfo, SketchInMapResponse,
         SketchLineInMap, TransformRequest, TransformResponse, DrawingPointIn, DrawingPointOut,

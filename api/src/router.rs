@@ -717,7 +717,7 @@ pub(crate) async fn session_events(
     } else {
         // The snapshot (the status, then the pose now) takes the id of the last event
         // before it: resuming from it continues with what followed.
-        std::iter::once(SessionEvent::Status(status))
+        std::iter::once(SessionEvent::Status(Box::new(status)))
             .chain(pose.map(SessionEvent::Pose))
             .map(|event| NumberedEvent { id: last_id, event })
             .collect()

@@ -192,6 +192,76 @@ impl LidarMount {
     }
 }
 
+/// How far the robot's wheel odometry can be off: the standard deviations its error grows
+/// by per meter travelled and per radian turned, over a path of `D` meters and `Θ` radians
+/// (the odometry motion model of Thrun, Burgard, Fox, *Probabilistic Robotics*, §5.4):
+/// `σ_θ = α₁·Θ + α₂·D`, `σ_t = α₃·D + α₄·Θ`. The mapper reads it to tell when the odometry's
+/// guess may lie outside the scan matcher's reach (a far guess is searched first) and how far
+/// a match may move the pose from it. Standard deviations, not variances: ROS AMCL's
+/// `odom_alpha1..4` weigh squares (`σ² = α₁·θ² + α₂·d²`), so take the square root of each.
+/// A field left out keeps the service's default; a worn robot on carpet drifts a few
+/// percent per meter (`position_sd_per_m` 0.03–0.05).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct OdometryNoise {
+    /// α₁: heading error per radian turned, radians per radian (default 0.1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(example = 0.05)]
+    pub heading_sd_per_rad: Option<f64>,
+    /// α₂: heading error per meter travelled, radians per meter (default 0.05).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(example = 0.02)]
+    pub heading_sd_rad_per_m: Option<f64>,
+    /// α₃: position error per meter travelled, meters per meter (default 0.1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(example = 0.04)]
+    pub position_sd_per_m: Option<f64>,
+    /// α₄: position error per radian turned, meters per radian (default 0.05).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(example = 0.01)]
+    pub position_sd_m_per_rad: Option<f64>,
+}
+
+/// An odometry noise factor is refused above this: a standard deviation of ten times the
+/// path is no odometry at all.
+pub const MAX_ODOMETRY_SD_FACTOR: f64 = 10.0;
+
+impl OdometryNoise {
+    /// Each given factor with its field's name (`odometry_noise.…`).
+    pub fn fields(&self) -> [(&'static str, Option<f64>); 4] {
+        [
+            ("odometry_noise.heading_sd_per_rad", self.heading_sd_per_rad),
+            (
+                "odometry_noise.heading_sd_rad_per_m",
+                self.heading_sd_rad_per_m,
+            ),
+            ("odometry_noise.position_sd_per_m", self.position_sd_per_m),
+            (
+                "odometry_noise.position_sd_m_per_rad",
+                self.position_sd_m_per_rad,
+            ),
+        ]
+    }
+
+    /// Refuses a factor that is not finite or lies outside `0..=MAX_ODOMETRY_SD_FACTOR`,
+    /// naming its field.
+    pub fn validate(&self) -> Result<(), ApiError> {
+        for (field, value) in self.fields() {
+            let Some(value) = value else { continue };
+            check_finite(field, value)?;
+            if !(0.0..=MAX_ODOMETRY_SD_FACTOR).contains(&value) {
+                return Err(ApiError::invalid_number(
+                    field,
+                    &format!(
+                        "must lie between 0 and {MAX_ODOMETRY_SD_FACTOR} (a standard deviation per meter or radian of the path)"
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// A LiDAR mount is refused farther than this from the robot's centre, meters: a scanner
 /// is on the robot.
 pub const MAX_LIDAR_OFFSET_M: f64 = 10.0;
@@ -223,6 +293,10 @@ pub struct CreateSessionRequest {
     /// Where the LiDAR sits on the robot; default: at the centre, facing forward.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lidar_mount: Option<LidarMount>,
+    /// How far the robot's wheel odometry can be off; default: the service's model (worn
+    /// wheels, 10 % of the path).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub odometry_noise: Option<OdometryNoise>,
     /// For `sketch`: how MCL on the drawing weighs a scan; default `ray_cast`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mcl_observation: Option<DrawingObservationModel>,
@@ -309,6 +383,9 @@ impl CreateSessionRequest {
     pub fn validate(&self) -> Result<(), ApiError> {
         sketchslam_types::names::validate_segment("robot_id", &self.robot_id)
             .map_err(|e| ApiError::invalid("invalid_robot_id", e.to_string()))?;
+        if let Some(noise) = self.odometry_noise {
+            noise.validate()?;
+        }
         if let Some(m) = self.lidar_mount {
             for (field, value) in [("lidar_mount.x_m", m.x_m), ("lidar_mount.y_m", m.y_m)] {
                 check_finite(field, value)?;
@@ -458,6 +535,10 @@ pub struct SessionInfo {
     /// centre).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lidar_mount: Option<LidarMount>,
+    /// The wheel odometry's error model the session maps with, every factor filled in
+    /// (absent: the service's default, when the request gave none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub odometry_noise: Option<OdometryNoise>,
     /// `sketch` sessions: how MCL on the drawing weighs a scan (absent for the others).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mcl_observation: Option<DrawingObservationModel>,
@@ -667,8 +748,9 @@ pub struct HealthResponse {
 pub enum SessionEvent {
     /// A new pose estimate.
     Pose(PoseResponse),
-    /// A change of the session's status (state, error, ...).
-    Status(SessionInfo),
+    /// A change of the session's status (state, error, ...); boxed, as it is the larger by
+    /// far and most events are poses.
+    Status(Box<SessionInfo>),
 }
 
 impl SessionEvent {

@@ -56,6 +56,7 @@ async fn client_covers_every_endpoint() {
         meters_per_pixel: Some(0.1),
         seed: None,
         lidar_mount: None,
+        odometry_noise: None,
         mcl_observation: None,
         drawing_localization: None,
         start_heading_from_walls: None,

@@ -638,6 +638,52 @@ async fn a_lidar_mount_is_kept_with_the_session_and_a_bad_one_is_named() {
 }
 
 #[tokio::test]
+async fn an_odometry_model_is_kept_with_the_session_and_a_bad_one_is_named() {
+    let h = default_harness();
+    for (noise, field) in [
+        (
+            json!({"position_sd_per_m": -0.01}),
+            "odometry_noise.position_sd_per_m",
+        ),
+        (
+            json!({"heading_sd_per_rad": 11.0}),
+            "odometry_noise.heading_sd_per_rad",
+        ),
+        (
+            json!({"heading_sd_rad_per_m": 0.02, "position_sd_m_per_rad": 1e9}),
+            "odometry_noise.position_sd_m_per_rad",
+        ),
+    ] {
+        let message = post_json(
+            &h.app,
+            "/v1/sessions",
+            &json!({"robot_id": "r1", "method": "graph", "odometry_noise": noise}),
+        )
+        .await
+        .error(StatusCode::UNPROCESSABLE_ENTITY, "invalid_number");
+        assert!(message.contains(field), "{message}");
+    }
+    // AMCL's names are refused, not ignored: its alphas weigh variances, ours deviations.
+    let a = post_json(
+        &h.app,
+        "/v1/sessions",
+        &json!({"robot_id": "r1", "method": "graph", "odometry_noise": {"alpha3": 0.2}}),
+    )
+    .await;
+    assert!(a.status.is_client_error(), "{}", a.text());
+    assert!(h.fake.sessions.lock().unwrap().is_empty());
+    let noise = json!({"position_sd_per_m": 0.03, "heading_sd_per_rad": 0.05});
+    let a = post_json(
+        &h.app,
+        "/v1/sessions",
+        &json!({"robot_id": "r1", "method": "graph", "odometry_noise": noise}),
+    )
+    .await;
+    assert_eq!(a.status, StatusCode::CREATED, "{}", a.text());
+    assert_eq!(a.json()["odometry_noise"], noise);
+}
+
+#[tokio::test]
 async fn the_observation_model_of_mcl_is_kept_with_the_session_and_a_bad_one_is_refused() {
     let h = default_harness();
     let a = post_json(

@@ -187,6 +187,7 @@ async fn run(data: &std::path::Path) -> Result<()> {
             meters_per_pixel: None,
             seed: Some(1),
             lidar_mount: None,
+            odometry_noise: None,
             mcl_observation: None,
             drawing_localization: None,
             start_heading_from_walls: None,

@@ -67,6 +67,7 @@ async fn run(data: &std::path::Path) -> Result<()> {
             meters_per_pixel: None,
             seed: None,
             lidar_mount: None,
+            odometry_noise: None,
             mcl_observation: None,
             drawing_localization: None,
             start_heading_from_walls: None,

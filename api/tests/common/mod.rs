@@ -194,6 +194,7 @@ impl Backend for Fake {
             stopped_unix_ms: None,
             stop_reason: None,
             lidar_mount: r.lidar_mount,
+            odometry_noise: r.odometry_noise,
             checkpoint_unix_ms: None,
             start_heading_from_walls_deg: None,
             mcl_observation: r.mcl_observation,
@@ -223,7 +224,7 @@ impl Backend for Fake {
         s.state = SessionState::Stopped;
         s.stopped_unix_ms = Some(3);
         if let Some(log) = self.events.lock().unwrap().remove(id) {
-            log.publish(SessionEvent::Status(s.clone()));
+            log.publish(SessionEvent::Status(Box::new(s.clone())));
         }
         Ok(s.clone())
     }

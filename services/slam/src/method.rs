@@ -1,6 +1,6 @@
 //! The one mapping between the HTTP API's enums and the engine's: [`MappingMethod`] and
 //! [`Method`], [`DrawingObservationModel`] and [`ObservationModel`], [`DrawingLocalization`]
-//! and [`SketchHeadingView`].
+//! and [`SketchHeadingView`], and the odometry's noise model, [`OdometryNoise`] both sides.
 //!
 //! It sits in the runtime because the runtime is the one crate that sees both sides: the
 //! engine must not depend on the API crate and the API crate must not depend on the engine.
@@ -13,6 +13,7 @@
 use sketchslam_api::{DrawingLocalization, DrawingObservationModel, MappingMethod};
 use sketchslam_engine::localization::observation_model::ObservationModel;
 use sketchslam_engine::mapper::{Method, SketchHeadingView};
+use sketchslam_engine::scan_matching::odometry_noise::OdometryNoise;
 
 /// The engine's method for an API request's method.
 pub fn engine_method(method: MappingMethod) -> Method {
@@ -66,6 +67,30 @@ pub fn api_drawing_localization(view: SketchHeadingView) -> DrawingLocalization 
     }
 }
 
+/// The engine's odometry noise model for a request's: each factor the request gives,
+/// `default`'s for the others.
+pub fn engine_odometry_noise(
+    asked: &sketchslam_api::OdometryNoise,
+    default: OdometryNoise,
+) -> OdometryNoise {
+    OdometryNoise {
+        rot_per_rad: asked.heading_sd_per_rad.unwrap_or(default.rot_per_rad),
+        rot_per_m: asked.heading_sd_rad_per_m.unwrap_or(default.rot_per_m),
+        trans_per_m: asked.position_sd_per_m.unwrap_or(default.trans_per_m),
+        trans_per_rad: asked.position_sd_m_per_rad.unwrap_or(default.trans_per_rad),
+    }
+}
+
+/// The API's odometry noise model for the engine's, every factor filled in.
+pub fn api_odometry_noise(noise: &OdometryNoise) -> sketchslam_api::OdometryNoise {
+    sketchslam_api::OdometryNoise {
+        heading_sd_per_rad: Some(noise.rot_per_rad),
+        heading_sd_rad_per_m: Some(noise.rot_per_m),
+        position_sd_per_m: Some(noise.trans_per_m),
+        position_sd_m_per_rad: Some(noise.trans_per_rad),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -96,5 +121,28 @@ mod tests {
             assert_eq!(name(api), name(view));
             assert_eq!(engine_heading_view(api), view);
         }
+    }
+
+    #[test]
+    fn an_odometry_noise_model_fills_what_the_request_leaves_out_and_round_trips() {
+        let default = OdometryNoise::default();
+        let asked = sketchslam_api::OdometryNoise {
+            position_sd_per_m: Some(0.04),
+            ..Default::default()
+        };
+        let engine = engine_odometry_noise(&asked, default);
+        assert_eq!(
+            engine,
+            OdometryNoise {
+                trans_per_m: 0.04,
+                ..default
+            }
+        );
+        assert_eq!(
+            engine_odometry_noise(&api_odometry_noise(&engine), default),
+            engine
+        );
+        let filled = api_odometry_noise(&engine);
+        assert!(filled.fields().iter().all(|(_, v)| v.is_some()));
     }
 }

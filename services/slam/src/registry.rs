@@ -22,8 +22,8 @@ use super::RuntimeError;
 use super::codec::{no_drawing, occupancy_response, stored_occupancy, stored_trajectory_response};
 use super::config::RegistryConfig;
 use super::method::{
-    api_drawing_localization, api_observation, engine_heading_view, engine_method,
-    engine_observation,
+    api_drawing_localization, api_observation, api_odometry_noise, engine_heading_view,
+    engine_method, engine_observation, engine_odometry_noise,
 };
 use super::metrics::{Histogram, RunningSession, render_metrics};
 use super::process_stats::ProcessStats;
@@ -317,6 +317,13 @@ impl Registry {
         if let Some(m) = request.lidar_mount {
             mapper_config.lidar_mount = m.pose();
         }
+        // The model the session runs: the request's factors over the service's default.
+        let odometry_noise = request.odometry_noise.map(|asked| {
+            let filled =
+                engine_odometry_noise(&asked, mapper_config.odometry_noise.unwrap_or_default());
+            mapper_config.odometry_noise = Some(filled);
+            api_odometry_noise(&filled)
+        });
         if let Some(model) = request.mcl_observation {
             mapper_config.mcl.observation = engine_observation(model);
         }
@@ -358,6 +365,7 @@ impl Registry {
             stopped_unix_ms: None,
             stop_reason: None,
             lidar_mount: request.lidar_mount,
+            odometry_noise,
             mcl_observation,
             drawing_localization,
             checkpoint_unix_ms: None,

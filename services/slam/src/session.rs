@@ -97,7 +97,7 @@ impl SessionShared {
     fn publish_status(&self) {
         let info = lock(&self.info).clone();
         // No subscriber is not an error.
-        self.events.publish(SessionEvent::Status(info));
+        self.events.publish(SessionEvent::Status(Box::new(info)));
     }
 }
 

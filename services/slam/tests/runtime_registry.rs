@@ -72,6 +72,7 @@ fn sketch_start(sketch_id: &str, u: f64, v: f64) -> CreateSessionRequest {
         meters_per_pixel: Some(0.1),
         seed: None,
         lidar_mount: None,
+        odometry_noise: None,
         mcl_observation: None,
         drawing_localization: None,
         start_heading_from_walls: None,
@@ -392,6 +393,58 @@ fn a_drawing_keeps_its_declared_scale_and_sessions_without_one_take_it() {
 }
 
 #[test]
+fn a_robots_odometry_model_is_filled_in_kept_and_a_bad_one_refused() {
+    let dir = TempDir::new();
+    let prefix = unique_prefix();
+    let reg = registry(&dir.0, &prefix);
+    let graph = |robot: &str, noise| CreateSessionRequest {
+        robot_id: robot.into(),
+        method: MappingMethod::Graph,
+        sketch_id: None,
+        start: None,
+        meters_per_pixel: None,
+        seed: None,
+        lidar_mount: None,
+        odometry_noise: Some(noise),
+        mcl_observation: None,
+        drawing_localization: None,
+        start_heading_from_walls: None,
+    };
+    // Only the position's drift per meter given: the other three are the service's.
+    let asked = sketchslam_api::OdometryNoise {
+        position_sd_per_m: Some(0.03),
+        ..Default::default()
+    };
+    let info = reg.create_session(graph("worn", asked)).unwrap();
+    let filled = info.odometry_noise.expect("the model the session runs");
+    assert_eq!(filled.position_sd_per_m, Some(0.03));
+    assert!(
+        filled.fields().iter().all(|(_, v)| v.is_some()),
+        "{filled:?}"
+    );
+    // A negative factor is refused by name (the router refuses it first, with the range;
+    // the engine too), and no session is made for it.
+    let bad = sketchslam_api::OdometryNoise {
+        heading_sd_per_rad: Some(-0.1),
+        ..Default::default()
+    };
+    let e = reg.create_session(graph("bad", bad)).unwrap_err();
+    assert_eq!(code(e.clone()), "invalid_parameter", "{e}");
+    assert!(e.to_string().contains("odometry_noise"), "{e}");
+    assert_eq!(reg.list_sessions().unwrap().len(), 1);
+    // Kept with the stopped session across a restart.
+    reg.stop_session(&info.id).unwrap();
+    reg.shutdown();
+    drop(reg);
+    let reg = registry(&dir.0, &prefix);
+    assert_eq!(
+        reg.get_session(&info.id).unwrap().odometry_noise,
+        Some(filled)
+    );
+    reg.shutdown();
+}
+
+#[test]
 fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
     let dir = TempDir::new();
     let prefix = unique_prefix();
@@ -412,6 +465,7 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
             meters_per_pixel: Some(0.1),
             seed: None,
             lidar_mount: None,
+            odometry_noise: None,
             mcl_observation: None,
             drawing_localization: None,
             start_heading_from_walls: None,
@@ -426,6 +480,7 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
             meters_per_pixel: None,
             seed: None,
             lidar_mount: None,
+            odometry_noise: None,
             mcl_observation: None,
             drawing_localization: None,
             start_heading_from_walls: None,
@@ -529,6 +584,7 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
             meters_per_pixel: None,
             seed: None,
             lidar_mount: None,
+            odometry_noise: None,
             mcl_observation: None,
             drawing_localization: None,
             start_heading_from_walls: None,
@@ -659,6 +715,7 @@ fn fleets_run_side_by_side_within_the_limit() {
         meters_per_pixel: None,
         seed: None,
         lidar_mount: None,
+        odometry_noise: None,
         mcl_observation: None,
         drawing_localization: None,
         start_heading_from_walls: None,

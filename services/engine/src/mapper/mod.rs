@@ -202,6 +202,12 @@ impl Mapper {
                 reason: "must be finite".into(),
             });
         }
+        if config.odometry_noise.is_some_and(|n| !n.is_valid()) {
+            return Err(EngineError::InvalidParameter {
+                name: "odometry_noise",
+                reason: "every factor must be finite and at least 0".into(),
+            });
+        }
         let turned = Pose2::new(0.0, 0.0, config.frame_turn_rad);
         let (front_end, start_pose, back_end) = match method {
             Method::Odometry => (FrontEnd::Odometry, turned, None),

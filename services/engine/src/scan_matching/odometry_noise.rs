@@ -105,6 +105,18 @@ impl IncrementSigma {
 }
 
 impl OdometryNoise {
+    /// True when every factor is finite and at least 0 (a standard deviation).
+    pub fn is_valid(&self) -> bool {
+        [
+            self.rot_per_rad,
+            self.rot_per_m,
+            self.trans_per_m,
+            self.trans_per_rad,
+        ]
+        .iter()
+        .all(|f| f.is_finite() && *f >= 0.0)
+    }
+
     /// The module doc's σ_t and σ_θ over `path`; a non-finite path gives infinite sigmas.
     pub fn sigma(&self, path: &OdometryPath) -> IncrementSigma {
         let (d, turn) = (path.travelled_m, path.turned_rad);
