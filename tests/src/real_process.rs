@@ -16,7 +16,7 @@ use crate::run_loop::{
     LIVE_SKETCH_TRAJECTORY_FILE, RunFigures, SKETCH_IN_MAP_FILE, SKETCH_OVERLAY_FILE,
     WARP_TRAJECTORY_FILE, served_drawing_poses, warp_held_share, write_drawing_trajectory,
 };
-use crate::run_method::RunMethod;
+use crate::run_method::{RunMethod, wheel_model};
 use crate::service_histogram::{SCAN_PROCESSING, ServiceHistogram};
 use crate::service_process::{ServiceOptions, ServiceProcess};
 use crate::session_request::{baseline_session, sketch_session};
@@ -32,7 +32,7 @@ use sketchslam_engine::sketch::SketchPose;
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
 use sketchslam_simulator::simulation::Simulation;
 use sketchslam_simulator::world::World;
-use sketchslam_slam::method::{api_drawing_localization, api_method};
+use sketchslam_slam::method::{api_drawing_localization, api_method, api_odometry_noise};
 use sketchslam_types::Pose2;
 use sketchslam_types::trajectory_csv::{self, NumberFormat};
 use std::path::Path;
@@ -71,7 +71,13 @@ pub fn run_real_process(
         scans: Simulation::new(scenario)?.scan_count(),
         lidar_mount: scenario.lidar.mount,
     };
-    let run_method = method.into();
+    let run_method: RunMethod = method.into();
+    let run_method = RunMethod {
+        odometry_noise: run_method
+            .own_wheels
+            .then(|| wheel_model(&scenario.odometry)),
+        ..run_method
+    };
     let method = run_method.method;
     let mapped = map_through_processes(&source, run_method, sketch, out_dir, max_scans, progress)?;
     let world = World::load(&scenario.world.image, scenario.world.resolution_m)?;
@@ -220,6 +226,7 @@ pub fn map_through_processes(
     let view = run_method.sketch_heading_view;
     let request = CreateSessionRequest {
         lidar_mount: (mount != Pose2::IDENTITY).then(|| LidarMount::from_pose(mount)),
+        odometry_noise: run_method.odometry_noise.as_ref().map(api_odometry_noise),
         drawing_localization: (method == Method::Sketch && view != SketchHeadingView::default())
             .then(|| api_drawing_localization(view)),
         ..request

@@ -7,6 +7,8 @@ use sketchslam_engine::back_end::pose_graph::{OptimizeConfig, Preconditioning};
 use sketchslam_engine::localization::mcl::MclConfig;
 use sketchslam_engine::localization::observation_model::ObservationModel;
 use sketchslam_engine::mapper::{MapperConfig, Method, SketchHeadingView};
+use sketchslam_engine::scan_matching::odometry_noise::OdometryNoise;
+use sketchslam_simulator::scenario::OdometryConfig;
 use sketchslam_types::Pose2;
 use std::fmt;
 use std::str::FromStr;
@@ -24,6 +26,14 @@ pub struct RunMethod {
     /// Where the LiDAR sits on the robot (the stream's, not the method's: set from the
     /// scenario by the runs; zero by default).
     pub lidar_mount: Pose2,
+    /// Tell the mapper the simulated robot's own wheel error model ([`wheel_model`] of the
+    /// scenario's `[odometry]`) instead of the service's default, as a user who knows their
+    /// robot would (`evaluate --own-wheels`). False by default; logs keep the default.
+    pub own_wheels: bool,
+    /// The wheel model the mapper is told (`MapperConfig::odometry_noise`) when set: set
+    /// from the scenario by the runs when [`Self::own_wheels`]; the engine's default
+    /// otherwise.
+    pub odometry_noise: Option<OdometryNoise>,
     /// The map frame turned from the robot's start heading, radians
     /// (`MapperConfig::frame_turn_rad`; methods without a drawing only). Zero by default.
     pub frame_turn_rad: f64,
@@ -79,6 +89,8 @@ impl From<Method> for RunMethod {
             method,
             loop_closure: true,
             lidar_mount: Pose2::IDENTITY,
+            own_wheels: false,
+            odometry_noise: None,
             frame_turn_rad: 0.0,
             keep_live_warps: false,
             live_warp: true,
@@ -134,6 +146,7 @@ impl RunMethod {
                 .or(defaults.icp_hold_beyond_sigmas),
             icp_hold_over_stretch: self.icp_hold_over_stretch || defaults.icp_hold_over_stretch,
             lidar_mount: self.lidar_mount,
+            odometry_noise: self.odometry_noise.or(defaults.odometry_noise),
             frame_turn_rad: self.frame_turn_rad
                 + crate::samples::sample_turn_deg(self.sample).to_radians(),
             sketch_heading_view: self.sketch_heading_view,
@@ -145,6 +158,22 @@ impl RunMethod {
                 .unwrap_or(defaults.sketch_start_from_walls),
             ..defaults
         }
+    }
+}
+
+/// The error model of a simulated robot's wheels in the mapper's terms (Thrun's α's,
+/// standard deviations per meter and per radian): the simulator's error after a meter is
+/// `N(bias, noise²)` ([`OdometryConfig`]), so its σ over a meter is bounded by
+/// `|bias| + noise`, and likewise per radian turned. The simulator has no cross terms (a
+/// turn's error does not depend on the travel, nor the other way); they get 0.01, a
+/// hundredth of a meter or radian, for what the model leaves out.
+pub fn wheel_model(odometry: &OdometryConfig) -> OdometryNoise {
+    const CROSS: f64 = 0.01;
+    OdometryNoise {
+        rot_per_rad: odometry.rot_bias.abs() + odometry.rot_noise,
+        rot_per_m: CROSS,
+        trans_per_m: odometry.trans_bias.abs() + odometry.trans_noise,
+        trans_per_rad: CROSS,
     }
 }
 
@@ -205,6 +234,30 @@ mod tests {
         );
         assert!("icp-open".parse::<RunMethod>().is_err());
         assert!("nonsense".parse::<RunMethod>().is_err());
+    }
+
+    #[test]
+    fn a_robots_own_wheels_are_told_to_the_mapper() {
+        // school's worn wheels: 3 % scale bias and 0.05 m after a meter; 2 % and 0.05 rad
+        // after a radian.
+        let school = OdometryConfig {
+            rate_hz: 50.0,
+            trans_noise: 0.05,
+            rot_noise: 0.05,
+            trans_bias: 0.03,
+            rot_bias: -0.02,
+        };
+        let model = wheel_model(&school);
+        assert!((model.trans_per_m - 0.08).abs() < 1e-12, "{model:?}");
+        assert!((model.rot_per_rad - 0.07).abs() < 1e-12, "{model:?}");
+        assert_eq!((model.rot_per_m, model.trans_per_rad), (0.01, 0.01));
+        let told = RunMethod {
+            odometry_noise: Some(model),
+            ..Method::Graph.into()
+        };
+        assert_eq!(told.config(1).odometry_noise, Some(model));
+        let plain = RunMethod::from(Method::Graph).config(1).odometry_noise;
+        assert_eq!(plain, MapperConfig::default().odometry_noise);
     }
 
     #[test]

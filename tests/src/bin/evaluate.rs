@@ -170,6 +170,11 @@ struct Args {
     /// (the engine's `icp_hold_over_stretch`).
     #[arg(long, requires = "icp_hold_beyond_sigmas")]
     icp_hold_over_stretch: bool,
+    /// Tell the mapper each simulated world's own wheel error model (its scenario's
+    /// `[odometry]`, as the session request's `odometry_noise`) instead of the service's
+    /// default, as a user who knows their robot would; datasets keep the default.
+    #[arg(long)]
+    own_wheels: bool,
     /// In-process runs: map every run this many times, sample k with the frame of the
     /// methods without a drawing turned a further 0, +1, −1, +2, … degrees and the engine's
     /// seed + k, and print each run's median, best and worst over its samples.
@@ -320,6 +325,9 @@ fn main() -> Result<()> {
             m.icp_hold_over_stretch = args.icp_hold_over_stretch;
         },
     )?;
+    for m in methods.iter_mut() {
+        m.own_wheels = args.own_wheels;
+    }
     if args.repeat == 0 || (args.repeat > 1 && !in_process) {
         bail!("--repeat: 1 or more samples, in-process only (add --in-process)");
     }
