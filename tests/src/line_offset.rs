@@ -46,7 +46,7 @@ pub fn wall_faces(world: &World) -> Vec<Point2> {
 }
 
 /// The translation (pixels) that lays `points` (drawing pixels) on `lines`, pairing each point
-/// with its nearest line within `gate_px`; `None` when fewer than [`MIN_MATCHED`] points pair.
+/// with its nearest line within `gate_px`; `None` when fewer than `MIN_MATCHED` points pair.
 pub fn translation_onto_lines(
     points: &[Point2],
     lines: &[SketchLine],

@@ -1,7 +1,7 @@
 //! The HTTP listener: the accept loop in front of the API's router, with the limits a
 //! service open to a network needs.
 //!
-//! Sits between the socket and [`sketchslam_api::router`]. `axum::serve` has no limits of its
+//! Sits between the socket and [`sketchslam_api::router()`]. `axum::serve` has no limits of its
 //! own: a client that opens a connection and sends its headers a byte a minute, or a body
 //! that never ends, holds a task and a socket for ever, and nothing bounds how many such
 //! connections there are. Here:

@@ -182,7 +182,7 @@ impl Session {
         })
     }
 
-    /// Stops the session once: the first caller finishes it ([`Session::finish`]) and hands
+    /// Stops the session once: the first caller finishes it (`Session::finish`) and hands
     /// its final status and files to `store`; every caller, concurrent or later, gets that
     /// one answer (the others wait for it). Two stops never save twice, so they never
     /// write the same files at once.

@@ -137,7 +137,7 @@ pub struct MapperConfig {
     /// error (`registration.rotation_error_rad`), and the marked start is turned onto them
     /// when the reading exceeds `sketch_heading_deadband_rad` (any reading at a gain of 1):
     /// the turn eq. (5) would make while mapping, bending the map
-    /// ([`super::start_heading`]); false keeps the mark.
+    /// (`mapper/start_heading.rs`); false keeps the mark.
     ///
     /// Off by default, measured 2026-12-05: it fixes paper-env1 C (marked 9.3° off: map
     /// 0.013–0.065 → 0.006 m over three seeds), but on the Intel Lab, whose drawings' walls
@@ -170,7 +170,7 @@ impl MapperConfig {
     /// The heading difference eq. (5) leaves alone, radians: `sketch_heading_deadband_rad`
     /// (a drawn wall's own angular error), or none with the paper's hard correction
     /// (`sketch_heading_gain` 1). The `sketch` front end's deadband and the start heading's
-    /// tolerance ([`super::start_heading`]).
+    /// tolerance (`mapper/start_heading.rs`).
     pub fn sketch_heading_band_rad(&self) -> f64 {
         if self.sketch_heading_gain >= 1.0 {
             0.0

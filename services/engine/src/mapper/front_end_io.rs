@@ -52,7 +52,7 @@ pub struct FrontEndOutput {
     pub pose: Pose2,
     /// How far off `pose` can be relative to the map the front end matched against, in
     /// (x, y, heading), translation on the map's axes, when the front end knows
-    /// (keyframe ICP: [`super::keyframe_icp::Aligned`]).
+    /// (keyframe ICP: `keyframe_icp::Aligned`).
     pub covariance: Option<Matrix3<f64>>,
     /// The scan's RANSAC lines (robot frame) when the front end extracted them, so the
     /// back end does not extract them a second time.

@@ -36,7 +36,7 @@
 //! a second leaves a second of raw odometry between two corrected poses).
 //!
 //! A LiDAR off the robot's centre ([`MapperConfig::lidar_mount`]): everything inside runs
-//! on the LiDAR's poses and the robot's come out ([`lidar_mount`]); the map frame is the
+//! on the LiDAR's poses and the robot's come out (`lidar_mount`); the map frame is the
 //! robot's either way.
 //!
 //! Pure: no threads, clocks or I/O; its randomness comes from seeded ChaCha streams.
@@ -439,7 +439,7 @@ impl Mapper {
     }
 
     /// `sketch` sessions: the map to fit the warp onto the drawing to, when a fit is due
-    /// ([`warp_schedule`] says when, in keyframes); the caller fits it off the scan path
+    /// (`warp_schedule` says when, in keyframes); the caller fits it off the scan path
     /// ([`WarpProblem::solve`]) and answers with [`Mapper::deliver_warp`]. `None` when no
     /// fit is due, a request is unanswered, or for the other methods. O(keyframe points).
     pub fn warp_request(&mut self) -> Option<WarpProblem> {
@@ -719,7 +719,7 @@ impl Mapper {
     }
 
     /// `sketch` sessions: how far the first scan's walls turned the marked start heading,
-    /// radians counter-clockwise ([`start_heading`]); `None` before the first scan, when
+    /// radians counter-clockwise (`start_heading`); `None` before the first scan, when
     /// the walls could not tell (the mark stands), and for the other methods.
     pub fn start_turn_rad(&self) -> Option<f64> {
         self.start_turn_rad

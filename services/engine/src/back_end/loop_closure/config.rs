@@ -54,7 +54,7 @@ pub struct LoopClosureConfig {
     /// Least mean likelihood (0..1) of an accepted loop match.
     pub min_score: f64,
     /// Translations scoring at least this share of the best make up a match's
-    /// uncertainty region ([`LikelihoodField::translation_covariance`]).
+    /// uncertainty region ([`crate::scan_matching::correlative::LikelihoodField::translation_covariance`]).
     pub plateau_fraction: f64,
     /// Give up a loop edge's weakest direction when the match's score plateau is wider
     /// there than the likelihood kernel (`correlative.sigma_m`) and the scan reaches
@@ -157,7 +157,7 @@ pub struct LoopClosureConfig {
     /// rejected. Default 20 (10 m of route at the default keyframe spacing).
     pub pending_keyframes: usize,
     /// After an optimization, a loop edge whose squared Mahalanobis error is above this
-    /// times the loops' variance factor ([`variance_factor`]: their median strain over
+    /// times the loops' variance factor (`variance_factor`: their median strain over
     /// χ²(3)'s) disagrees with the rest of the graph and is taken out again (16.27 is the
     /// 99.9 % χ² quantile of 3 degrees of freedom). Default `None`, measured:
     /// - 2026-12-02, against the a-priori bound alone: the Intel log's relations 0.086 →
