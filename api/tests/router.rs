@@ -591,96 +591,82 @@ async fn baseline_sessions_need_no_sketch_and_a_robot_maps_once() {
     .error(StatusCode::UNPROCESSABLE_ENTITY, "no_drawing");
 }
 
-#[tokio::test]
-async fn a_lidar_mount_is_kept_with_the_session_and_a_bad_one_is_named() {
+/// Posts `graph` sessions with `key` set: to each of `bad` (a 422 `invalid_number` naming
+/// its field), to `misspelt` (refused, not ignored: an option silently dropped changes the
+/// map) and, with none made before, to `good` (created, and echoed as sent).
+async fn a_session_option_is_checked(
+    key: &str,
+    bad: &[(serde_json::Value, &str)],
+    misspelt: serde_json::Value,
+    good: serde_json::Value,
+) {
     let h = default_harness();
-    for (mount, field) in [
-        (
-            json!({"x_m": 11.0, "y_m": 0.0, "yaw_deg": 0.0}),
-            "lidar_mount.x_m",
-        ),
-        (
-            json!({"x_m": 0.0, "y_m": -10.5, "yaw_deg": 0.0}),
-            "lidar_mount.y_m",
-        ),
-        (
-            json!({"x_m": 0.3, "y_m": 0.0, "yaw_deg": 400.0}),
-            "lidar_mount.yaw_deg",
-        ),
-    ] {
-        let message = post_json(
-            &h.app,
-            "/v1/sessions",
-            &json!({"robot_id": "r1", "method": "graph", "lidar_mount": mount}),
-        )
-        .await
-        .error(StatusCode::UNPROCESSABLE_ENTITY, "invalid_number");
+    let request = |value: &serde_json::Value| {
+        let mut r = json!({"robot_id": "r1", "method": "graph"});
+        r[key] = value.clone();
+        r
+    };
+    for (value, field) in bad {
+        let message = post_json(&h.app, "/v1/sessions", &request(value))
+            .await
+            .error(StatusCode::UNPROCESSABLE_ENTITY, "invalid_number");
         assert!(message.contains(field), "{message}");
     }
-    // A misspelt key is refused, not ignored (a mount silently dropped bends the map).
-    let a = post_json(
-        &h.app,
-        "/v1/sessions",
-        &json!({"robot_id": "r1", "method": "graph", "lidar_mount": {"x": 0.3, "y_m": 0.0, "yaw_deg": 0.0}}),
-    )
-    .await;
+    let a = post_json(&h.app, "/v1/sessions", &request(&misspelt)).await;
     assert!(a.status.is_client_error(), "{}", a.text());
     assert!(h.fake.sessions.lock().unwrap().is_empty());
-    let mount = json!({"x_m": 0.3, "y_m": -0.05, "yaw_deg": 5.0});
-    let a = post_json(
-        &h.app,
-        "/v1/sessions",
-        &json!({"robot_id": "r1", "method": "graph", "lidar_mount": mount}),
+    let a = post_json(&h.app, "/v1/sessions", &request(&good)).await;
+    assert_eq!(a.status, StatusCode::CREATED, "{}", a.text());
+    assert_eq!(a.json()[key], good);
+}
+
+#[tokio::test]
+async fn a_lidar_mount_is_kept_with_the_session_and_a_bad_one_is_named() {
+    a_session_option_is_checked(
+        "lidar_mount",
+        &[
+            (
+                json!({"x_m": 11.0, "y_m": 0.0, "yaw_deg": 0.0}),
+                "lidar_mount.x_m",
+            ),
+            (
+                json!({"x_m": 0.0, "y_m": -10.5, "yaw_deg": 0.0}),
+                "lidar_mount.y_m",
+            ),
+            (
+                json!({"x_m": 0.3, "y_m": 0.0, "yaw_deg": 400.0}),
+                "lidar_mount.yaw_deg",
+            ),
+        ],
+        json!({"x": 0.3, "y_m": 0.0, "yaw_deg": 0.0}),
+        json!({"x_m": 0.3, "y_m": -0.05, "yaw_deg": 5.0}),
     )
     .await;
-    assert_eq!(a.status, StatusCode::CREATED, "{}", a.text());
-    assert_eq!(a.json()["lidar_mount"], mount);
 }
 
 #[tokio::test]
 async fn an_odometry_model_is_kept_with_the_session_and_a_bad_one_is_named() {
-    let h = default_harness();
-    for (noise, field) in [
-        (
-            json!({"position_sd_per_m": -0.01}),
-            "odometry_noise.position_sd_per_m",
-        ),
-        (
-            json!({"heading_sd_per_rad": 11.0}),
-            "odometry_noise.heading_sd_per_rad",
-        ),
-        (
-            json!({"heading_sd_rad_per_m": 0.02, "position_sd_m_per_rad": 1e9}),
-            "odometry_noise.position_sd_m_per_rad",
-        ),
-    ] {
-        let message = post_json(
-            &h.app,
-            "/v1/sessions",
-            &json!({"robot_id": "r1", "method": "graph", "odometry_noise": noise}),
-        )
-        .await
-        .error(StatusCode::UNPROCESSABLE_ENTITY, "invalid_number");
-        assert!(message.contains(field), "{message}");
-    }
-    // AMCL's names are refused, not ignored: its alphas weigh variances, ours deviations.
-    let a = post_json(
-        &h.app,
-        "/v1/sessions",
-        &json!({"robot_id": "r1", "method": "graph", "odometry_noise": {"alpha3": 0.2}}),
+    a_session_option_is_checked(
+        "odometry_noise",
+        &[
+            (
+                json!({"position_sd_per_m": -0.01}),
+                "odometry_noise.position_sd_per_m",
+            ),
+            (
+                json!({"heading_sd_per_rad": 11.0}),
+                "odometry_noise.heading_sd_per_rad",
+            ),
+            (
+                json!({"heading_sd_rad_per_m": 0.02, "position_sd_m_per_rad": 1e9}),
+                "odometry_noise.position_sd_m_per_rad",
+            ),
+        ],
+        // AMCL's names: its alphas weigh variances, ours standard deviations.
+        json!({"alpha3": 0.2}),
+        json!({"position_sd_per_m": 0.03, "heading_sd_per_rad": 0.05}),
     )
     .await;
-    assert!(a.status.is_client_error(), "{}", a.text());
-    assert!(h.fake.sessions.lock().unwrap().is_empty());
-    let noise = json!({"position_sd_per_m": 0.03, "heading_sd_per_rad": 0.05});
-    let a = post_json(
-        &h.app,
-        "/v1/sessions",
-        &json!({"robot_id": "r1", "method": "graph", "odometry_noise": noise}),
-    )
-    .await;
-    assert_eq!(a.status, StatusCode::CREATED, "{}", a.text());
-    assert_eq!(a.json()["odometry_noise"], noise);
 }
 
 #[tokio::test]

@@ -79,6 +79,23 @@ fn sketch_start(sketch_id: &str, u: f64, v: f64) -> CreateSessionRequest {
     }
 }
 
+/// A session of `method` (one without a drawing) for `robot_id`, every option left out.
+fn plain_session(robot_id: &str, method: MappingMethod) -> CreateSessionRequest {
+    CreateSessionRequest {
+        robot_id: robot_id.into(),
+        method,
+        sketch_id: None,
+        start: None,
+        meters_per_pixel: None,
+        seed: None,
+        lidar_mount: None,
+        odometry_noise: None,
+        mcl_observation: None,
+        drawing_localization: None,
+        start_heading_from_walls: None,
+    }
+}
+
 /// An upload named `name` with no scale.
 fn named(name: &str) -> SketchUpload {
     SketchUpload {
@@ -398,17 +415,8 @@ fn a_robots_odometry_model_is_filled_in_kept_and_a_bad_one_refused() {
     let prefix = unique_prefix();
     let reg = registry(&dir.0, &prefix);
     let graph = |robot: &str, noise| CreateSessionRequest {
-        robot_id: robot.into(),
-        method: MappingMethod::Graph,
-        sketch_id: None,
-        start: None,
-        meters_per_pixel: None,
-        seed: None,
-        lidar_mount: None,
         odometry_noise: Some(noise),
-        mcl_observation: None,
-        drawing_localization: None,
-        start_heading_from_walls: None,
+        ..plain_session(robot, MappingMethod::Graph)
     };
     // Only the position's drift per meter given: the other three are the service's.
     let asked = sketchslam_api::OdometryNoise {
@@ -472,19 +480,7 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
         })
         .unwrap();
     let baseline = reg
-        .create_session(CreateSessionRequest {
-            robot_id: "plain".into(),
-            method: MappingMethod::Graph,
-            sketch_id: None,
-            start: None,
-            meters_per_pixel: None,
-            seed: None,
-            lidar_mount: None,
-            odometry_noise: None,
-            mcl_observation: None,
-            drawing_localization: None,
-            start_heading_from_walls: None,
-        })
+        .create_session(plain_session("plain", MappingMethod::Graph))
         .unwrap();
     // The sketch session says which observation model its MCL weighs scans with (the
     // default, not asked for); a session without a drawing has none.
@@ -576,19 +572,7 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
         .create_sketch(named("A"), Bytes::from(sketch_a()))
         .unwrap();
     let session = reg
-        .create_session(CreateSessionRequest {
-            robot_id: "bot".into(),
-            method: MappingMethod::Icp,
-            sketch_id: None,
-            start: None,
-            meters_per_pixel: None,
-            seed: None,
-            lidar_mount: None,
-            odometry_noise: None,
-            mcl_observation: None,
-            drawing_localization: None,
-            start_heading_from_walls: None,
-        })
+        .create_session(plain_session("bot", MappingMethod::Icp))
         .unwrap();
     let id = session.id.clone();
     let mut events = reg.subscribe_events(&id, None).unwrap().live;
@@ -707,19 +691,7 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
 fn fleets_run_side_by_side_within_the_limit() {
     let dir = TempDir::new();
     let reg = registry(&dir.0, &unique_prefix());
-    let req = |robot: &str| CreateSessionRequest {
-        robot_id: robot.into(),
-        method: MappingMethod::Odometry,
-        sketch_id: None,
-        start: None,
-        meters_per_pixel: None,
-        seed: None,
-        lidar_mount: None,
-        odometry_noise: None,
-        mcl_observation: None,
-        drawing_localization: None,
-        start_heading_from_walls: None,
-    };
+    let req = |robot: &str| plain_session(robot, MappingMethod::Odometry);
     let ids: Vec<String> = (0..4)
         .map(|i| reg.create_session(req(&format!("r{i}"))).unwrap().id)
         .collect();
