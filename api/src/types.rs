@@ -377,6 +377,24 @@ pub fn check_meters_per_pixel(mpp: f64) -> Result<(), ApiError> {
 pub const MAX_HEADING_DEG: f64 = 360.0;
 
 impl CreateSessionRequest {
+    /// A request for `robot_id` with `method` and every optional field left out (the
+    /// service's defaults); set the others with struct update syntax.
+    pub fn new(robot_id: &str, method: MappingMethod) -> Self {
+        Self {
+            robot_id: robot_id.into(),
+            method,
+            sketch_id: None,
+            start: None,
+            meters_per_pixel: None,
+            seed: None,
+            lidar_mount: None,
+            odometry_noise: None,
+            mcl_observation: None,
+            drawing_localization: None,
+            start_heading_from_walls: None,
+        }
+    }
+
     /// Checks everything that does not need the registry: the robot id, the fields the
     /// method needs, and that every number is finite and in range. The sketch's existence
     /// and whether the start lies on it are the backend's to check.

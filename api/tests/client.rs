@@ -45,8 +45,6 @@ async fn client_covers_every_endpoint() {
     assert_eq!(e.code(), Some("invalid_image"));
 
     let request = CreateSessionRequest {
-        robot_id: "r1".into(),
-        method: MappingMethod::Sketch,
         sketch_id: Some(sketch.id.clone()),
         start: Some(SketchStart {
             u: 66.9,
@@ -54,12 +52,7 @@ async fn client_covers_every_endpoint() {
             heading_deg: 1.1,
         }),
         meters_per_pixel: Some(0.1),
-        seed: None,
-        lidar_mount: None,
-        odometry_noise: None,
-        mcl_observation: None,
-        drawing_localization: None,
-        start_heading_from_walls: None,
+        ..CreateSessionRequest::new("r1", MappingMethod::Sketch)
     };
     let session = c.create_session(&request).await.unwrap();
     assert_eq!(session.state, SessionState::WaitingForData);

@@ -24,17 +24,11 @@ pub fn sketch_session(
     seed: Option<u64>,
 ) -> CreateSessionRequest {
     CreateSessionRequest {
-        robot_id: robot_id.into(),
-        method: MappingMethod::Sketch,
         sketch_id: Some(sketch_id.into()),
         start: Some(sketch_start(cfg)),
         meters_per_pixel: Some(cfg.meters_per_pixel),
         seed,
-        lidar_mount: None,
-        odometry_noise: None,
-        mcl_observation: None,
-        drawing_localization: None,
-        start_heading_from_walls: None,
+        ..CreateSessionRequest::new(robot_id, MappingMethod::Sketch)
     }
 }
 
@@ -45,16 +39,7 @@ pub fn baseline_session(
     seed: Option<u64>,
 ) -> CreateSessionRequest {
     CreateSessionRequest {
-        robot_id: robot_id.into(),
-        method,
-        sketch_id: None,
-        start: None,
-        meters_per_pixel: None,
         seed,
-        lidar_mount: None,
-        odometry_noise: None,
-        mcl_observation: None,
-        drawing_localization: None,
-        start_heading_from_walls: None,
+        ..CreateSessionRequest::new(robot_id, method)
     }
 }

@@ -180,17 +180,8 @@ async fn run(data: &std::path::Path) -> Result<()> {
     let client = service.client.clone();
     let session = client
         .create_session(&CreateSessionRequest {
-            robot_id: "box".into(),
-            method: MappingMethod::Odometry,
-            sketch_id: None,
-            start: None,
-            meters_per_pixel: None,
             seed: Some(1),
-            lidar_mount: None,
-            odometry_noise: None,
-            mcl_observation: None,
-            drawing_localization: None,
-            start_heading_from_walls: None,
+            ..CreateSessionRequest::new("box", MappingMethod::Odometry)
         })
         .await?;
     let p = prefix.clone();

@@ -59,19 +59,7 @@ async fn run(data: &std::path::Path) -> Result<()> {
     let stopped = client.stop_session(&session.id).await?;
     ensure!(stopped.state == SessionState::Stopped);
     let live = client
-        .create_session(&CreateSessionRequest {
-            robot_id: "r2".into(),
-            method: MappingMethod::Odometry,
-            sketch_id: None,
-            start: None,
-            meters_per_pixel: None,
-            seed: None,
-            lidar_mount: None,
-            odometry_noise: None,
-            mcl_observation: None,
-            drawing_localization: None,
-            start_heading_from_walls: None,
-        })
+        .create_session(&CreateSessionRequest::new("r2", MappingMethod::Odometry))
         .await?;
 
     let pgm = client.map_pgm(&session.id).await?;

@@ -61,8 +61,6 @@ fn sketch_a() -> Vec<u8> {
 /// 0.1 m/px.
 fn sketch_start(sketch_id: &str, u: f64, v: f64) -> CreateSessionRequest {
     CreateSessionRequest {
-        robot_id: "r1".into(),
-        method: MappingMethod::Sketch,
         sketch_id: Some(sketch_id.to_string()),
         start: Some(SketchStart {
             u,
@@ -70,29 +68,7 @@ fn sketch_start(sketch_id: &str, u: f64, v: f64) -> CreateSessionRequest {
             heading_deg: 1.1,
         }),
         meters_per_pixel: Some(0.1),
-        seed: None,
-        lidar_mount: None,
-        odometry_noise: None,
-        mcl_observation: None,
-        drawing_localization: None,
-        start_heading_from_walls: None,
-    }
-}
-
-/// A session of `method` (one without a drawing) for `robot_id`, every option left out.
-fn plain_session(robot_id: &str, method: MappingMethod) -> CreateSessionRequest {
-    CreateSessionRequest {
-        robot_id: robot_id.into(),
-        method,
-        sketch_id: None,
-        start: None,
-        meters_per_pixel: None,
-        seed: None,
-        lidar_mount: None,
-        odometry_noise: None,
-        mcl_observation: None,
-        drawing_localization: None,
-        start_heading_from_walls: None,
+        ..CreateSessionRequest::new("r1", MappingMethod::Sketch)
     }
 }
 
@@ -416,7 +392,7 @@ fn a_robots_odometry_model_is_filled_in_kept_and_a_bad_one_refused() {
     let reg = registry(&dir.0, &prefix);
     let graph = |robot: &str, noise| CreateSessionRequest {
         odometry_noise: Some(noise),
-        ..plain_session(robot, MappingMethod::Graph)
+        ..CreateSessionRequest::new(robot, MappingMethod::Graph)
     };
     // Only the position's drift per meter given: the other three are the service's.
     let asked = sketchslam_api::OdometryNoise {
@@ -463,24 +439,11 @@ fn a_sketch_session_keeps_its_trajectory_on_the_drawing_across_a_restart() {
     let session = reg
         .create_session(CreateSessionRequest {
             robot_id: "drawn".into(),
-            method: MappingMethod::Sketch,
-            sketch_id: Some(sketch.id.clone()),
-            start: Some(SketchStart {
-                u: 66.9,
-                v: 320.3,
-                heading_deg: 1.1,
-            }),
-            meters_per_pixel: Some(0.1),
-            seed: None,
-            lidar_mount: None,
-            odometry_noise: None,
-            mcl_observation: None,
-            drawing_localization: None,
-            start_heading_from_walls: None,
+            ..sketch_start(&sketch.id, 66.9, 320.3)
         })
         .unwrap();
     let baseline = reg
-        .create_session(plain_session("plain", MappingMethod::Graph))
+        .create_session(CreateSessionRequest::new("plain", MappingMethod::Graph))
         .unwrap();
     // The sketch session says which observation model its MCL weighs scans with (the
     // default, not asked for); a session without a drawing has none.
@@ -572,7 +535,7 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
         .create_sketch(named("A"), Bytes::from(sketch_a()))
         .unwrap();
     let session = reg
-        .create_session(plain_session("bot", MappingMethod::Icp))
+        .create_session(CreateSessionRequest::new("bot", MappingMethod::Icp))
         .unwrap();
     let id = session.id.clone();
     let mut events = reg.subscribe_events(&id, None).unwrap().live;
@@ -691,7 +654,7 @@ fn a_session_maps_counts_gaps_and_survives_a_restart() {
 fn fleets_run_side_by_side_within_the_limit() {
     let dir = TempDir::new();
     let reg = registry(&dir.0, &unique_prefix());
-    let req = |robot: &str| plain_session(robot, MappingMethod::Odometry);
+    let req = |robot: &str| CreateSessionRequest::new(robot, MappingMethod::Odometry);
     let ids: Vec<String> = (0..4)
         .map(|i| reg.create_session(req(&format!("r{i}"))).unwrap().id)
         .collect();
