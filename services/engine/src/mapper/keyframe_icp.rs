@@ -415,10 +415,7 @@ impl DeadReckoning {
         let from = Pose2::new(self.pose.x, self.pose.y, heading_rad);
         Self {
             pose: from.compose(increment),
-            path: OdometryPath {
-                travelled_m: self.path.travelled_m + path.travelled_m,
-                turned_rad: self.path.turned_rad + path.turned_rad,
-            },
+            path: self.path.plus(path),
         }
     }
 }

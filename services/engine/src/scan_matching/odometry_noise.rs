@@ -73,10 +73,14 @@ impl OdometryPath {
 
     /// This path followed by the step `increment`.
     pub fn then(&self, increment: &Pose2) -> Self {
-        let step = Self::of_increment(increment);
+        self.plus(&Self::of_increment(increment))
+    }
+
+    /// This path followed by `next`: the sums of both.
+    pub fn plus(&self, next: &OdometryPath) -> Self {
         Self {
-            travelled_m: self.travelled_m + step.travelled_m,
-            turned_rad: self.turned_rad + step.turned_rad,
+            travelled_m: self.travelled_m + next.travelled_m,
+            turned_rad: self.turned_rad + next.turned_rad,
         }
     }
 }
