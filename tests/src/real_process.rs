@@ -16,7 +16,7 @@ use crate::run_loop::{
     LIVE_SKETCH_TRAJECTORY_FILE, RunFigures, SKETCH_IN_MAP_FILE, SKETCH_OVERLAY_FILE,
     WARP_TRAJECTORY_FILE, served_drawing_poses, warp_held_share, write_drawing_trajectory,
 };
-use crate::run_method::{RunMethod, wheel_model};
+use crate::run_method::RunMethod;
 use crate::service_histogram::{SCAN_PROCESSING, ServiceHistogram};
 use crate::service_process::{ServiceOptions, ServiceProcess};
 use crate::session_request::{baseline_session, sketch_session};
@@ -71,13 +71,7 @@ pub fn run_real_process(
         scans: Simulation::new(scenario)?.scan_count(),
         lidar_mount: scenario.lidar.mount,
     };
-    let run_method: RunMethod = method.into();
-    let run_method = RunMethod {
-        odometry_noise: run_method
-            .own_wheels
-            .then(|| wheel_model(&scenario.odometry)),
-        ..run_method
-    };
+    let run_method = method.into().on_wheels(&scenario.odometry);
     let method = run_method.method;
     let mapped = map_through_processes(&source, run_method, sketch, out_dir, max_scans, progress)?;
     let world = World::load(&scenario.world.image, scenario.world.resolution_m)?;

@@ -9,7 +9,7 @@ use crate::live_warp::write_live_fits;
 use crate::metrics::{self, StampedPose, WallGrid};
 use crate::overlay;
 use crate::run_loop::map_in_process;
-use crate::run_method::{RunMethod, wheel_model};
+use crate::run_method::RunMethod;
 use crate::sketch_truth::{fill_sketch_pose_scores, score_published_poses};
 use crate::warp_problem_file::WarpProblemFile;
 use anyhow::{Context, Result};
@@ -200,14 +200,11 @@ pub fn run_in_process(
     max_scans: Option<u64>,
     progress: impl FnMut(u64, u64),
 ) -> Result<RunResult> {
-    let run_method: RunMethod = method.into();
     let run_method = RunMethod {
         lidar_mount: scenario.lidar.mount,
-        odometry_noise: run_method
-            .own_wheels
-            .then(|| wheel_model(&scenario.odometry)),
-        ..run_method
-    };
+        ..method.into()
+    }
+    .on_wheels(&scenario.odometry);
     run_in_process_as(scenario, run_method, sketch, out_dir, max_scans, progress)
 }
 

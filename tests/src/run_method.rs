@@ -110,6 +110,19 @@ impl From<Method> for RunMethod {
 }
 
 impl RunMethod {
+    /// This run on a simulated robot with wheels `odometry`: their [`wheel_model`] told to
+    /// the mapper when [`Self::own_wheels`], as given otherwise.
+    pub fn on_wheels(self, odometry: &OdometryConfig) -> Self {
+        Self {
+            odometry_noise: if self.own_wheels {
+                Some(wheel_model(odometry))
+            } else {
+                self.odometry_noise
+            },
+            ..self
+        }
+    }
+
     /// The mapper's settings for this run, seeded with `seed`.
     pub fn config(&self, seed: u64) -> MapperConfig {
         let defaults = MapperConfig::default();
@@ -256,6 +269,18 @@ mod tests {
             ..Method::Graph.into()
         };
         assert_eq!(told.config(1).odometry_noise, Some(model));
+        // Asked for (`--own-wheels`), a run on these wheels tells the mapper; not asked, not.
+        let asked = RunMethod {
+            own_wheels: true,
+            ..Method::Graph.into()
+        };
+        assert_eq!(asked.on_wheels(&school).odometry_noise, Some(model));
+        assert_eq!(
+            RunMethod::from(Method::Graph)
+                .on_wheels(&school)
+                .odometry_noise,
+            None
+        );
         let plain = RunMethod::from(Method::Graph).config(1).odometry_noise;
         assert_eq!(plain, MapperConfig::default().odometry_noise);
     }
