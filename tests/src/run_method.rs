@@ -6,7 +6,7 @@ use sketchslam_engine::back_end::loop_closure::LoopClosureConfig;
 use sketchslam_engine::back_end::pose_graph::{OptimizeConfig, Preconditioning};
 use sketchslam_engine::localization::mcl::MclConfig;
 use sketchslam_engine::localization::observation_model::ObservationModel;
-use sketchslam_engine::mapper::{MapperConfig, Method, SketchHeadingView};
+use sketchslam_engine::mapper::{KeyframeStepModel, MapperConfig, Method, SketchHeadingView};
 use sketchslam_engine::scan_matching::odometry_noise::OdometryNoise;
 use sketchslam_simulator::scenario::OdometryConfig;
 use sketchslam_types::Pose2;
@@ -77,6 +77,9 @@ pub struct RunMethod {
     /// With `icp_hold_beyond_sigmas`: judged over the stretch since the last scan ICP
     /// placed in every direction (`MapperConfig::icp_hold_over_stretch`) when true.
     pub icp_hold_over_stretch: bool,
+    /// `graph` and `sketch`: how the scans' covariances between two keyframes make the
+    /// step's (`MapperConfig::keyframe_step`) when set, the engine's default otherwise.
+    pub keyframe_step: Option<KeyframeStepModel>,
     /// `evaluate --repeat`: sample `k` of the run turns the map frame by a further
     /// [`crate::samples::sample_turn_deg`]`(k)` (methods without a drawing) and adds `k` to
     /// the engine's seed. 0, the plain run, by default.
@@ -104,6 +107,7 @@ impl From<Method> for RunMethod {
             icp_hold_min_points: None,
             icp_hold_beyond_sigmas: None,
             icp_hold_over_stretch: false,
+            keyframe_step: None,
             sample: 0,
         }
     }
@@ -158,6 +162,7 @@ impl RunMethod {
                 .icp_hold_beyond_sigmas
                 .or(defaults.icp_hold_beyond_sigmas),
             icp_hold_over_stretch: self.icp_hold_over_stretch || defaults.icp_hold_over_stretch,
+            keyframe_step: self.keyframe_step.unwrap_or(defaults.keyframe_step),
             lidar_mount: self.lidar_mount,
             odometry_noise: self.odometry_noise.or(defaults.odometry_noise),
             frame_turn_rad: self.frame_turn_rad
@@ -298,6 +303,23 @@ mod tests {
         assert!((second.frame_turn_rad - 9f64.to_radians()).abs() < 1e-12);
         m.engine_seed = Some(40);
         assert_eq!(m.config(3).seed, 42);
+    }
+
+    #[test]
+    fn the_keyframe_step_model_asked_for_reaches_the_mapper() {
+        let mut m = RunMethod::from(Method::Graph);
+        assert_eq!(
+            m.config(1).keyframe_step,
+            MapperConfig::default().keyframe_step
+        );
+        for asked in [
+            KeyframeStepModel::Summed,
+            KeyframeStepModel::Anchored,
+            KeyframeStepModel::MeasuredHeading,
+        ] {
+            m.keyframe_step = Some(asked);
+            assert_eq!(m.config(1).keyframe_step, asked);
+        }
     }
 
     #[test]

@@ -38,7 +38,7 @@ use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use sketchslam_engine::back_end::pose_graph::Preconditioning;
 use sketchslam_engine::localization::observation_model::ObservationModel;
-use sketchslam_engine::mapper::{Method, SketchHeadingView};
+use sketchslam_engine::mapper::{KeyframeStepModel, Method, SketchHeadingView};
 use sketchslam_simulator::dataset::{DATASET_FILE, Dataset};
 use sketchslam_simulator::generate::{Kind, LidarGrade, generate};
 use sketchslam_simulator::scenario::{Scenario, SketchConfig};
@@ -170,6 +170,14 @@ struct Args {
     /// (the engine's `icp_hold_over_stretch`).
     #[arg(long, requires = "icp_hold_beyond_sigmas")]
     icp_hold_over_stretch: bool,
+    /// In-process runs of `graph` and `sketch`: how the front end's covariances of the
+    /// scans between two keyframes make the step's, which weighs the sequential edge and
+    /// the loop gate's chain: `summed` (every scan's), `anchored` (the keyframe's own match
+    /// plus the odometry's share of every scan, the default) or `measured_heading`
+    /// (positions anchored, the headings ICP measured summed; the engine's
+    /// `keyframe_step`).
+    #[arg(long, value_parser = parse_keyframe_step)]
+    keyframe_step: Option<KeyframeStepModel>,
     /// Tell the mapper each simulated world's own wheel error model (its scenario's
     /// `[odometry]`, as the session request's `odometry_noise`) instead of the service's
     /// default, as a user who knows their robot would; datasets keep the default.
@@ -196,6 +204,10 @@ fn parse_heading_view(s: &str) -> Result<SketchHeadingView, String> {
 
 fn parse_preconditioning(s: &str) -> Result<Preconditioning, String> {
     by_wire_name(s, "chain or block_jacobi")
+}
+
+fn parse_keyframe_step(s: &str) -> Result<KeyframeStepModel, String> {
+    by_wire_name(s, "summed, anchored or measured_heading")
 }
 
 fn parse_observation(s: &str) -> Result<ObservationModel, String> {
@@ -314,6 +326,9 @@ fn main() -> Result<()> {
     })?;
     only.apply("--preconditioning", args.preconditioning, any(), |m, &p| {
         m.preconditioning = Some(p)
+    })?;
+    only.apply("--keyframe-step", args.keyframe_step, any(), |m, &k| {
+        m.keyframe_step = Some(k)
     })?;
     only.apply(
         "--icp-hold-min-points",

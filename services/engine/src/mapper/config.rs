@@ -1,5 +1,6 @@
 //! A mapper's settings, and the drawing a `sketch` session starts from.
 
+use super::keyframe_step::KeyframeStepModel;
 use crate::back_end::loop_closure::LoopClosureConfig;
 use crate::localization::mcl::MclConfig;
 use crate::mapping::grid::GridConfig;
@@ -151,6 +152,11 @@ pub struct MapperConfig {
     /// 3° changes `graph` on paper-env2 from 0.041 to 0.008 m. A `sketch` session's frame
     /// is the drawing's and ignores it.
     pub frame_turn_rad: f64,
+    /// How the front end's covariances of the scans between two keyframes make the step's,
+    /// which weighs the pose graph's sequential edge and the loop gate's chain
+    /// (`mapper/keyframe_step.rs`, with the formulas and what each does over 60 generated
+    /// worlds and the logs).
+    pub keyframe_step: KeyframeStepModel,
     /// Loop closure of the `graph` and `sketch` methods; `None` keeps their front ends
     /// alone. `odometry` and `icp` never close loops (`icp` is the paper's frame-to-frame
     /// ICP-SLAM).
@@ -197,6 +203,7 @@ impl Default for MapperConfig {
             sketch_heading_view: SketchHeadingView::default(),
             sketch_start_from_walls: false,
             frame_turn_rad: 0.0,
+            keyframe_step: KeyframeStepModel::default(),
             loop_closure: Some(LoopClosureConfig::default()),
             registration: FitConfig::default(),
             seed: 1,

@@ -45,15 +45,27 @@ pub struct SketchReport {
     pub localization_score: f64,
 }
 
+/// A scan pose's covariance in (x, y, heading), translation on the map's axes, and how
+/// much of it is the odometry's guess rather than the scan's measurement.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScanCovariance {
+    /// The whole covariance.
+    pub total: Matrix3<f64>,
+    /// The odometry's share of `total`: its position variance along the directions the scan
+    /// did not measure (a corridor's axis), and its heading variance when the scan did not
+    /// measure the heading (zero there otherwise). `total − unmeasured` is what the match
+    /// itself claims.
+    pub unmeasured: Matrix3<f64>,
+}
+
 /// What the front end made of one scan.
 #[derive(Debug, Clone)]
 pub struct FrontEndOutput {
     /// The scan's map pose (may be non-finite: the mapper then skips the scan).
     pub pose: Pose2,
-    /// How far off `pose` can be relative to the map the front end matched against, in
-    /// (x, y, heading), translation on the map's axes, when the front end knows
-    /// (keyframe ICP: `keyframe_icp::Aligned`).
-    pub covariance: Option<Matrix3<f64>>,
+    /// How far off `pose` can be relative to the map the front end matched against, when
+    /// the front end knows (keyframe ICP: `keyframe_icp::Aligned`).
+    pub covariance: Option<ScanCovariance>,
     /// The scan's RANSAC lines (robot frame) when the front end extracted them, so the
     /// back end does not extract them a second time.
     pub scan_lines: Option<Vec<ScanLine>>,

@@ -58,7 +58,7 @@
 //! the front end alone: worst 0.179 → 0.142 m).
 
 use super::config::{IcpReference, MapperConfig};
-use super::front_end_io::FrontEndInput;
+use super::front_end_io::{FrontEndInput, ScanCovariance};
 use crate::mapping::grid::OccupancyGrid;
 use crate::scan_matching::correlative::{
     CorrelativeConfig, LikelihoodField, SearchWindow, voxel_filter,
@@ -109,8 +109,8 @@ pub(super) struct Aligned {
     /// Its covariance in (x, y, heading), translation on the map's axes: ICP's
     /// ([`IcpResult::covariance`]), with the odometry's over the path since the last scan
     /// along the directions the scan does not measure, for a heading ICP held, and for a
-    /// scan ICP did not place.
-    pub covariance: Matrix3<f64>,
+    /// scan ICP did not place — that share kept apart as `unmeasured`.
+    pub covariance: ScanCovariance,
 }
 
 /// What [`KeyframeIcp::align_pose`] made of a scan: the pose taken (the guess when there
@@ -218,13 +218,17 @@ impl KeyframeIcp {
     pub(super) fn align(&mut self, input: &FrontEndInput, guess: Pose2, mode: IcpMode) -> Aligned {
         let noise = self.guess_noise.unwrap_or_default();
         let odometry = noise.sigma(&input.path);
+        let odometry_cov = Matrix3::from_diagonal(&Vector3::new(
+            odometry.position_m.powi(2),
+            odometry.position_m.powi(2),
+            odometry.heading_rad.powi(2),
+        ));
         let odometry_only = |pose| Aligned {
             pose,
-            covariance: Matrix3::from_diagonal(&Vector3::new(
-                odometry.position_m.powi(2),
-                odometry.position_m.powi(2),
-                odometry.heading_rad.powi(2),
-            )),
+            covariance: ScanCovariance {
+                total: odometry_cov,
+                unmeasured: odometry_cov,
+            },
         };
         // The odometry dead-reckoned to this scan, when the hold is judged over a stretch.
         let reckoning = self.hold_over_stretch.then(|| self.reckoned(input));
@@ -240,12 +244,29 @@ impl KeyframeIcp {
                 let mut covariance = Matrix3::zeros();
                 covariance.fixed_view_mut::<2, 2>(0, 0).copy_from(&xy);
                 covariance[(2, 2)] = heading_rad2.unwrap_or(odometry.heading_rad.powi(2));
-                Aligned { pose, covariance }
+                let mut unmeasured = Matrix3::zeros();
+                unmeasured.fixed_view_mut::<2, 2>(0, 0).copy_from(
+                    &(icp.unmeasured_projector(min_points) * odometry.position_m.powi(2)),
+                );
+                if heading_rad2.is_none() {
+                    unmeasured[(2, 2)] = odometry.heading_rad.powi(2);
+                }
+                Aligned {
+                    pose,
+                    covariance: ScanCovariance {
+                        total: covariance,
+                        unmeasured,
+                    },
+                }
             }
         };
         if self.odometry_gate_sigmas.is_some() {
             // (Only the gate reads it.)
-            let xy = aligned.covariance.fixed_view::<2, 2>(0, 0).into_owned();
+            let xy = aligned
+                .covariance
+                .total
+                .fixed_view::<2, 2>(0, 0)
+                .into_owned();
             let largest = xy.symmetric_eigenvalues().max();
             if largest.is_finite() {
                 self.recent_variance.push_back((self.route_m, largest));

@@ -47,6 +47,7 @@ mod frame;
 mod front_end;
 mod front_end_io;
 mod keyframe_icp;
+mod keyframe_step;
 mod lidar_mount;
 mod method;
 mod output;
@@ -57,7 +58,8 @@ mod warp_schedule;
 pub use between_scans::blend_stretch;
 pub use config::{IcpReference, MapperConfig, SketchHeadingView, SketchPrior};
 pub use frame::ScanFrame;
-pub use front_end_io::{FrontEndInput, FrontEndOutput, SketchReport};
+pub use front_end_io::{FrontEndInput, FrontEndOutput, ScanCovariance, SketchReport};
+pub use keyframe_step::KeyframeStepModel;
 pub use lidar_mount::LidarMount;
 pub use method::Method;
 pub use output::{
@@ -76,7 +78,7 @@ use crate::scan_matching::odometry_noise::OdometryPath;
 use crate::sketch::SketchPose;
 use front_end::FrontEnd;
 use keyframe_icp::KeyframeIcp;
-use nalgebra::Matrix3;
+use keyframe_step::KeyframeStep;
 use sketch_front_end::SketchFrontEnd;
 use sketchslam_types::{Odometry, Point2, Pose2, Scan, SensorEvent};
 use start_heading::StartHeading;
@@ -97,9 +99,9 @@ struct BackEnd {
     heading_prior: Option<WallHeadingPrior>,
     /// The stamp of each keyframe's scan, by keyframe index.
     keyframe_stamps_ns: Vec<u64>,
-    /// The front end's covariances of the scans since the last keyframe, summed (map axes):
-    /// the next sequential edge's, when the front end reports them.
-    step_covariance: Option<Matrix3<f64>>,
+    /// The front end's covariances of the scans since the last keyframe: the next keyframe
+    /// step's, when the front end reports them.
+    step: KeyframeStep,
 }
 
 impl BackEnd {
@@ -121,7 +123,7 @@ impl BackEnd {
             closer: LoopCloser::new(closure),
             heading_prior,
             keyframe_stamps_ns: Vec::new(),
-            step_covariance: None,
+            step: KeyframeStep::default(),
         })
     }
 }
@@ -493,8 +495,8 @@ impl Mapper {
         let Some(back_end) = &mut self.back_end else {
             return pose;
         };
-        if let Some(cov) = output.covariance {
-            *back_end.step_covariance.get_or_insert_with(Matrix3::zeros) += cov;
+        if let Some(covariance) = &output.covariance {
+            back_end.step.add_scan(covariance);
         }
         if !back_end.closer.wants_keyframe(&pose) {
             return pose;
@@ -505,7 +507,9 @@ impl Mapper {
             }
             _ => None,
         };
-        let step_covariance = back_end.step_covariance.take();
+        let step_covariance = back_end
+            .step
+            .take(self.config.keyframe_step, output.covariance.as_ref());
         let outcome = back_end.closer.add_keyframe_with_step(
             pose,
             &frame.points,

@@ -126,6 +126,23 @@ impl IcpResult {
         (Point2::new(v[0], v[1]), eig.eigenvalues[k].max(0.0))
     }
 
+    /// The projector onto the translation directions the match does not measure: `Σ v vᵀ`
+    /// over the eigenvectors `v` of `H`'s translation block whose eigenvalue is below
+    /// `min_points` (zero when the scan pins both down, the identity in open space). The
+    /// odometry's share of [`IcpResult::covariance`] is this times its variance. O(1).
+    pub fn unmeasured_projector(&self, min_points: f64) -> Matrix2<f64> {
+        let h = self.normal_matrix.fixed_view::<2, 2>(0, 0).into_owned();
+        let eig = h.symmetric_eigen();
+        let mut projector = Matrix2::zeros();
+        for k in 0..2 {
+            if eig.eigenvalues[k] < min_points {
+                let v = eig.eigenvectors.column(k).into_owned();
+                projector += v * v.transpose();
+            }
+        }
+        projector
+    }
+
     /// The pose's covariance under independent residuals of the converged RMS,
     /// `Σ = rms² H⁻¹` in (x, y, heading), translation in the reference frame (Censi, "An
     /// accurate closed-form estimate of ICP's covariance", ICRA 2007, takes this as the
@@ -538,5 +555,27 @@ mod tests {
         // Translation only: the heading row is zero, nothing is known of the heading.
         let (_, heading) = result(Vector3::new(100.0, 400.0, 0.0), 0.02).covariance(20.0, 0.01);
         assert_eq!(heading, None);
+    }
+
+    #[test]
+    fn unmeasured_projector_picks_the_weak_axes() {
+        // A room: nothing unmeasured. A corridor along x: the x axis. Open space: both.
+        let p = result(Vector3::new(100.0, 400.0, 50.0), 0.02).unmeasured_projector(20.0);
+        assert_eq!(p, Matrix2::zeros());
+        let p = result(Vector3::new(3.0, 500.0, 100.0), 0.02).unmeasured_projector(20.0);
+        assert!(
+            (p - Matrix2::new(1.0, 0.0, 0.0, 0.0)).abs().max() < 1e-12,
+            "{p}"
+        );
+        let p = result(Vector3::new(3.0, 5.0, 100.0), 0.02).unmeasured_projector(20.0);
+        assert!((p - Matrix2::identity()).abs().max() < 1e-12, "{p}");
+        // A corridor at 45°: 3 returns face (1, 1)/√2, 500 face (1, −1)/√2: the former.
+        let mut r = result(Vector3::new(0.0, 0.0, 100.0), 0.02);
+        let weak = nalgebra::Vector2::new(1.0, 1.0) / 2f64.sqrt();
+        let strong = nalgebra::Vector2::new(1.0, -1.0) / 2f64.sqrt();
+        let h = weak * weak.transpose() * 3.0 + strong * strong.transpose() * 500.0;
+        r.normal_matrix.fixed_view_mut::<2, 2>(0, 0).copy_from(&h);
+        let p = r.unmeasured_projector(20.0);
+        assert!((p - weak * weak.transpose()).abs().max() < 1e-12, "{p}");
     }
 }
