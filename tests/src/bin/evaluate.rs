@@ -172,8 +172,8 @@ struct Args {
     icp_hold_over_stretch: bool,
     /// In-process runs of `graph` and `sketch`: how the front end's covariances of the
     /// scans between two keyframes make the step's, which weighs the sequential edge and
-    /// the loop gate's chain: `summed` (every scan's), `anchored` (the keyframe's own match
-    /// plus the odometry's share of every scan, the default) or `measured_heading`
+    /// the loop gate's chain: `summed` (every scan's, the default), `anchored` (the
+    /// keyframe's own match plus the odometry's share of every scan) or `measured_heading`
     /// (positions anchored, the headings ICP measured summed; the engine's
     /// `keyframe_step`).
     #[arg(long, value_parser = parse_keyframe_step)]

@@ -54,10 +54,11 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum KeyframeStepModel {
-    /// Every scan's covariance summed, a random walk (the default until 2026-12-07).
-    Summed,
-    /// The keyframe's own match plus the odometry's share of every scan (the default).
+    /// Every scan's covariance summed, a random walk (the default: the others fail the
+    /// MIT CSAIL log's whole-log test, README).
     #[default]
+    Summed,
+    /// The keyframe's own match plus the odometry's share of every scan.
     Anchored,
     /// Positions as `Anchored`; the headings ICP measured summed, the odometry's only for
     /// the keyframe's own.
