@@ -28,7 +28,7 @@
 
 use crate::mapping::grid::OccupancyGrid;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
-use nalgebra::Matrix2;
+use nalgebra::{Matrix2, Vector2};
 use sketchslam_types::{Point2, Pose2};
 use std::num::NonZero;
 
@@ -126,21 +126,27 @@ impl IcpResult {
         (Point2::new(v[0], v[1]), eig.eigenvalues[k].max(0.0))
     }
 
-    /// The projector onto the translation directions the match does not measure: `Σ v vᵀ`
-    /// over the eigenvectors `v` of `H`'s translation block whose eigenvalue is below
-    /// `min_points` (zero when the scan pins both down, the identity in open space). The
-    /// odometry's share of [`IcpResult::covariance`] is this times its variance. O(1).
-    pub fn unmeasured_projector(&self, min_points: f64) -> Matrix2<f64> {
+    /// The translation directions the match does not measure: the unit eigenvectors of
+    /// `H`'s translation block whose eigenvalue is below `min_points` (weighted returns; a
+    /// corridor's axis), in eigen-decomposition order. None when the scan pins both down,
+    /// both in open space. O(1).
+    pub fn unmeasured_directions(
+        &self,
+        min_points: f64,
+    ) -> impl Iterator<Item = Vector2<f64>> + Clone {
         let h = self.normal_matrix.fixed_view::<2, 2>(0, 0).into_owned();
         let eig = h.symmetric_eigen();
-        let mut projector = Matrix2::zeros();
-        for k in 0..2 {
-            if eig.eigenvalues[k] < min_points {
-                let v = eig.eigenvectors.column(k).into_owned();
-                projector += v * v.transpose();
-            }
-        }
-        projector
+        (0..2)
+            .filter(move |&k| eig.eigenvalues[k] < min_points)
+            .map(move |k| eig.eigenvectors.column(k).into_owned())
+    }
+
+    /// The projector onto [`IcpResult::unmeasured_directions`]: `Σ v vᵀ` over them (zero
+    /// when the scan pins both down, the identity in open space). The odometry's share of
+    /// [`IcpResult::covariance`] is this times its variance. O(1).
+    pub fn unmeasured_projector(&self, min_points: f64) -> Matrix2<f64> {
+        self.unmeasured_directions(min_points)
+            .fold(Matrix2::zeros(), |p, v| p + v * v.transpose())
     }
 
     /// The pose's covariance under independent residuals of the converged RMS,

@@ -102,9 +102,8 @@ fn remap_unmeasured(
     shift_of: impl Fn(f64) -> f64,
 ) -> Held {
     let icp = result.pose;
-    let h = result.normal_matrix.fixed_view::<2, 2>(0, 0).into_owned();
-    let eig = h.symmetric_eigen();
-    let unmeasured = eig.eigenvalues.iter().filter(|&&l| l < min_points).count();
+    let weak = result.unmeasured_directions(min_points);
+    let unmeasured = weak.clone().count();
     if !predicted.is_finite() {
         return Held {
             pose: icp,
@@ -115,10 +114,9 @@ fn remap_unmeasured(
     let d = Vector2::new(predicted.x - icp.x, predicted.y - icp.y);
     let mut shift = Vector2::zeros();
     let mut directions = 0;
-    for k in 0..2 {
-        let v = eig.eigenvectors.column(k).into_owned();
+    for v in weak {
         let moved_m = shift_of(v.dot(&d));
-        if eig.eigenvalues[k] < min_points && moved_m != 0.0 {
+        if moved_m != 0.0 {
             shift += v * moved_m;
             directions += 1;
         }
