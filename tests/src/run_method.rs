@@ -80,6 +80,10 @@ pub struct RunMethod {
     /// `graph` and `sketch`: how the scans' covariances between two keyframes make the
     /// step's (`MapperConfig::keyframe_step`) when set, the engine's default otherwise.
     pub keyframe_step: Option<KeyframeStepModel>,
+    /// Methods that close loops: a loop gives up the position directions where it is
+    /// looser than this times the chain (`LoopClosureConfig::give_up_beyond_chain`) when
+    /// set (0: never), the engine's default otherwise.
+    pub give_up_beyond_chain: Option<f64>,
     /// `evaluate --repeat`: sample `k` of the run turns the map frame by a further
     /// [`crate::samples::sample_turn_deg`]`(k)` (methods without a drawing) and adds `k` to
     /// the engine's seed. 0, the plain run, by default.
@@ -108,6 +112,7 @@ impl From<Method> for RunMethod {
             icp_hold_beyond_sigmas: None,
             icp_hold_over_stretch: false,
             keyframe_step: None,
+            give_up_beyond_chain: None,
             sample: 0,
         }
     }
@@ -144,6 +149,11 @@ impl RunMethod {
                         Some(sigma_rad) if sigma_rad > 0.0 => Some(sigma_rad),
                         Some(_) => None,
                         None => closure.heading_prior_sigma_rad,
+                    },
+                    give_up_beyond_chain: match self.give_up_beyond_chain {
+                        Some(ratio) if ratio > 0.0 => Some(ratio),
+                        Some(_) => None,
+                        None => closure.give_up_beyond_chain,
                     },
                     optimize: OptimizeConfig {
                         preconditioning: self
@@ -320,6 +330,20 @@ mod tests {
             m.keyframe_step = Some(asked);
             assert_eq!(m.config(1).keyframe_step, asked);
         }
+    }
+
+    #[test]
+    fn the_give_up_ratio_asked_for_reaches_the_loop_closer() {
+        let ratio = |m: &RunMethod| m.config(1).loop_closure.map(|c| c.give_up_beyond_chain);
+        let mut m = RunMethod::from(Method::Graph);
+        assert_eq!(
+            ratio(&m),
+            Some(LoopClosureConfig::default().give_up_beyond_chain)
+        );
+        m.give_up_beyond_chain = Some(2.0);
+        assert_eq!(ratio(&m), Some(Some(2.0)));
+        m.give_up_beyond_chain = Some(0.0);
+        assert_eq!(ratio(&m), Some(None));
     }
 
     #[test]

@@ -178,6 +178,11 @@ struct Args {
     /// `keyframe_step`).
     #[arg(long, value_parser = parse_keyframe_step)]
     keyframe_step: Option<KeyframeStepModel>,
+    /// In-process runs of the methods that close loops: a loop gives up each position
+    /// direction along which it is looser than this many times the chain between its ends
+    /// (the engine's `give_up_beyond_chain`); 0: never.
+    #[arg(long)]
+    give_up_beyond_chain: Option<f64>,
     /// Tell the mapper each simulated world's own wheel error model (its scenario's
     /// `[odometry]`, as the session request's `odometry_noise`) instead of the service's
     /// default, as a user who knows their robot would; datasets keep the default.
@@ -330,6 +335,12 @@ fn main() -> Result<()> {
     only.apply("--keyframe-step", args.keyframe_step, any(), |m, &k| {
         m.keyframe_step = Some(k)
     })?;
+    only.apply(
+        "--give-up-beyond-chain",
+        args.give_up_beyond_chain,
+        ("0 (never) or above", |r| *r >= 0.0 && r.is_finite()),
+        |m, &r| m.give_up_beyond_chain = Some(r),
+    )?;
     only.apply(
         "--icp-hold-min-points",
         args.icp_hold_min_points,

@@ -26,6 +26,28 @@
 //!    what only one side saw (a scan reaching past its reference, which the likelihood
 //!    field scores toward more overlap) is pulled the other way when the roles swap.
 //!
+//! # What a loop adds
+//! A match's covariance is its score plateau's, a Gaussian around the top; along a
+//! direction where the plateau is wide (a corridor's axis) the top is not a noisy reading of
+//! the place but is set by overlap and clutter, a bias no covariance describes. Where the
+//! chain already ties the loop's ends more tightly than the match does — the route since
+//! the last loop is short, or ran through a loop that held it — the match tells the graph
+//! little along that direction and can only bring its bias. With
+//! `LoopClosureConfig::give_up_beyond_chain` the loop gives up each position direction
+//! along which its standard deviation exceeds that ratio times the chain's
+//! ([`given_up_to_chain`]), in the test against the chain and in the graph's edge alike:
+//! a match 1.5 m off along a corridor with σ = 0.5 m there is not tested (nor pulled) along
+//! it when the chain since the last loop holds the route to 0.07 m, while the same match
+//! after a long unclosed route, where the chain is looser than it, keeps its say. The
+//! heading likewise: a loop's heading deviation is not measured but set
+//! (`LoopClosureConfig::loop_sigma_rad`, 1°), and matches 1.4–2.8° off pass that test on a
+//! good scanner (generated office 43) where the chain since the last loop holds the
+//! heading to a fraction of a degree. In the chain tests of later loops it still counts
+//! as it claims (they may route through it, it may vouch for them). The rule trusts the
+//! chain's claim: where the chain
+//! is tighter than the front end's real drift (a long corridor it slides along), a right
+//! loop's correction is given up with it.
+//!
 //! # The chain's covariance
 //! Each sequential step `k` (keyframe `k−1 → k`, length `l_k`) adds independent noise of
 //! position variance `σ²_k` and heading variance `σ²_θk`, the same figures that weigh the
@@ -185,6 +207,44 @@ fn mahalanobis_sq(e: &Vector3<f64>, cov: &Matrix3<f64>) -> f64 {
     }
 }
 
+/// Variance put on a direction a loop gives up, m² (a standard deviation of 100 m: no
+/// pull, and no say in a test).
+pub const GIVEN_UP_M2: f64 = 1e4;
+/// Variance put on a heading a loop gives up, rad².
+pub const GIVEN_UP_RAD2: f64 = 1e4;
+
+/// What a loop knows beyond the chain it closes (module doc, "What a loop adds"): the
+/// variance to add to the loop's covariance so that it gives up each direction of its
+/// position along which its standard deviation is above `ratio` times the chain's
+/// (`chain`'s isotropic position variance), and its heading when that is. Zero when the
+/// loop is tighter than that everywhere. `covariance` in the loop's error frame, as
+/// [`LoopHypothesis::covariance`]; the position's directions are its 2×2 block's
+/// eigenvectors. O(1).
+pub fn given_up_to_chain(
+    covariance: &Matrix3<f64>,
+    chain: ChainVariance,
+    ratio: f64,
+) -> Matrix3<f64> {
+    let bound_m2 = ratio * ratio * chain.position_m2.max(0.0);
+    let eigen = covariance
+        .fixed_view::<2, 2>(0, 0)
+        .into_owned()
+        .symmetric_eigen();
+    let mut added_xy = nalgebra::Matrix2::zeros();
+    for (i, &var_m2) in eigen.eigenvalues.iter().enumerate() {
+        if var_m2 > bound_m2 {
+            let u = eigen.eigenvectors.column(i);
+            added_xy += u * u.transpose() * GIVEN_UP_M2;
+        }
+    }
+    let mut added = Matrix3::zeros();
+    added.fixed_view_mut::<2, 2>(0, 0).copy_from(&added_xy);
+    if covariance[(2, 2)] > ratio * ratio * chain.heading_rad2.max(0.0) {
+        added[(2, 2)] = GIVEN_UP_RAD2;
+    }
+    added
+}
+
 /// Test 1 of the module doc: the squared Mahalanobis distance between the loop and the
 /// graph's estimate, under the loop's covariance plus `chain` (what the route between the
 /// loop's ends can have drifted). Compare with a χ² quantile of 3 degrees of freedom. O(1).
@@ -293,6 +353,69 @@ mod tests {
                 sigma_rad * sigma_rad,
             )),
         }
+    }
+
+    #[test]
+    fn a_loop_gives_up_only_the_directions_the_chain_knows_better() {
+        // A corridor loop along (cos 30°, sin 30°): σ 0.5 m along it, 0.06 m across, 1°.
+        let (s, c) = 30f64.to_radians().sin_cos();
+        let r = nalgebra::Matrix2::new(c, -s, s, c);
+        let xy = r * nalgebra::Matrix2::new(0.25, 0.0, 0.0, 0.0036) * r.transpose();
+        let mut cov = Matrix3::zeros();
+        cov.fixed_view_mut::<2, 2>(0, 0).copy_from(&xy);
+        cov[(2, 2)] = 1f64.to_radians().powi(2);
+        let chain = |sigma_m: f64| ChainVariance {
+            position_m2: sigma_m * sigma_m,
+            heading_rad2: 1e-4,
+        };
+        // A chain of 0.07 m and 0.57° (1e-4 rad²): the axis (0.5 > 0.07) and the heading
+        // (1° > 0.57°) are given up, across (0.06 < 0.07) is kept.
+        let added = given_up_to_chain(&cov, chain(0.07), 1.0);
+        let along = nalgebra::Vector3::new(c, s, 0.0);
+        let across = nalgebra::Vector3::new(-s, c, 0.0);
+        assert!(
+            (along.dot(&(added * along)) - GIVEN_UP_M2).abs() < 1e-6,
+            "{added}"
+        );
+        assert!(across.dot(&(added * across)).abs() < 1e-6, "{added}");
+        assert_eq!(added[(2, 2)], GIVEN_UP_RAD2);
+        // A chain of 1 m and 2° (a long unclosed route): nothing given up; of 0.05 m:
+        // both position directions.
+        let loose = ChainVariance {
+            position_m2: 1.0,
+            heading_rad2: 2f64.to_radians().powi(2),
+        };
+        assert_eq!(given_up_to_chain(&cov, loose, 1.0), Matrix3::zeros());
+        let both = given_up_to_chain(&cov, chain(0.05), 1.0);
+        assert!((both.fixed_view::<2, 2>(0, 0).trace() - 2.0 * GIVEN_UP_M2).abs() < 1e-6);
+        // The ratio scales the chain: 0.5 m and 1° against 8 × 0.07 m and 8 × 0.57° are
+        // kept.
+        assert_eq!(given_up_to_chain(&cov, chain(0.07), 8.0), Matrix3::zeros());
+        // The test against the chain on a loop 1.5 m off along the axis: as the loop
+        // claims itself, d² = 1.5² / (0.25 + 0.07²) ≈ 8.8, inside the 99 % bound of 11.34
+        // (the chain's 0.07 m says it is 21 σ off); with the axis given up, d² ≈ 0 — the
+        // axis is no longer the loop's to say.
+        let nodes = vec![Pose2::IDENTITY, Pose2::new(0.0, 0.0, 0.0)];
+        let off = LoopHypothesis {
+            from: 0,
+            to: 1,
+            measurement: Pose2::new(1.5 * c, 1.5 * s, 0.0),
+            covariance: cov,
+        };
+        let claimed = prior_distance_sq(&nodes, &off, chain(0.07));
+        assert!((claimed - 2.25 / (0.25 + 0.0049)).abs() < 1e-6, "{claimed}");
+        let given_up = LoopHypothesis {
+            covariance: cov + added,
+            ..off
+        };
+        assert!(prior_distance_sq(&nodes, &given_up, chain(0.07)) < 1e-3);
+        // Across the axis it still speaks: 0.3 m off across is refused.
+        let aside = LoopHypothesis {
+            measurement: Pose2::new(-0.3 * s, 0.3 * c, 0.0),
+            ..given_up
+        };
+        let d2 = prior_distance_sq(&nodes, &aside, chain(0.07));
+        assert!((d2 - 0.09 / (0.0036 + 0.0049)).abs() < 1e-3, "{d2}");
     }
 
     #[test]

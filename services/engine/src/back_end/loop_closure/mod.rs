@@ -33,7 +33,7 @@
 
 use crate::back_end::closure_consistency::{
     ChainVariance, LoopHypothesis, MeasuredSteps, StepNoise, StepVariance, chain_variance,
-    pair_distance_sq, prior_distance_sq,
+    given_up_to_chain, pair_distance_sq, prior_distance_sq,
 };
 use crate::back_end::pose_graph::{Edge, PoseGraph};
 use crate::scan_matching::correlative::{SearchWindow, voxel_filter};
@@ -330,13 +330,24 @@ impl LoopCloser {
     /// chain cannot explain it; into the graph with every waiting loop that agrees with it
     /// once `min_consistent_loops` agree (or one loop already in the graph near it does);
     /// otherwise it waits. True when loops entered the graph.
-    fn verify(&mut self, found: MatchedLoop, now: usize) -> bool {
+    fn verify(&mut self, mut found: MatchedLoop, now: usize) -> bool {
         let c = &self.config;
         let nodes = self.graph.nodes();
         let noise = self.step_noise();
         let h = &found.hypothesis;
+        let chain = self.drift_since(h.from, h.to);
+        // The directions where the chain knows more than the match: neither tested against
+        // the chain nor pulled along in the graph (the pairwise tests below still weigh
+        // the match as it claims).
+        let given_up = c.give_up_beyond_chain.map_or(Matrix3::zeros(), |ratio| {
+            given_up_to_chain(&h.covariance, chain, ratio)
+        });
+        let tested = LoopHypothesis {
+            covariance: h.covariance + given_up,
+            ..*h
+        };
         // A NaN distance (a singular covariance) is refused too.
-        let d2 = prior_distance_sq(nodes, h, self.drift_since(h.from, h.to));
+        let d2 = prior_distance_sq(nodes, &tested, chain);
         if d2.is_nan() || d2 > c.consistency_chi2 {
             self.rejected += 1;
             return false;
@@ -365,6 +376,18 @@ impl LoopCloser {
                 group.push(p.hypothesis);
                 members.push(i);
             }
+        }
+        if given_up != Matrix3::zeros() {
+            let info = found
+                .edge
+                .information
+                .try_inverse()
+                .and_then(|cov| (cov + given_up).try_inverse());
+            let Some(info) = info else {
+                self.rejected += 1;
+                return false;
+            };
+            found.edge.information = 0.5 * (info + info.transpose());
         }
         let needed = if vouched {
             1
@@ -866,6 +889,39 @@ mod tests {
         lc.expire_pending(63 + LoopClosureConfig::default().pending_keyframes + 1);
         assert!(lc.pending.is_empty());
         assert_eq!(lc.rejected(), 1);
+    }
+
+    #[test]
+    fn a_loop_looser_than_the_chain_pulls_nothing_along_what_it_gives_up() {
+        // Three right loops tie the way back to the way out; then keyframe 66 matches a
+        // corridor view 1.5 m along the axis with σ 0.5 m there (a wide plateau), 0.05 m
+        // across, 1°. As it claims itself it passes (d² ≈ 1.5² / 0.25 ≈ 9 < 11.34) and
+        // pulls the graph along the corridor; given up beyond the chain (which the loops
+        // hold to about their own 0.05 m), it enters holding only what it measures.
+        let moved_m = |give_up: Option<f64>| {
+            let mut lc = out_and_back();
+            lc.config.give_up_beyond_chain = give_up;
+            for (from, to) in [(19, 60), (17, 62), (15, 64)] {
+                lc.verify(offered(&lc, from, to, 0.0), to);
+            }
+            lc.graph.optimize(&lc.config.optimize);
+            let before = lc.graph.nodes()[66];
+            let mut slid = offered(&lc, 13, 66, 1.5);
+            let cov = Matrix3::from_diagonal(&nalgebra::Vector3::new(
+                0.25,
+                0.0025,
+                1f64.to_radians().powi(2),
+            ));
+            slid.hypothesis.covariance = cov;
+            slid.edge.information = cov.try_inverse().unwrap();
+            assert!(lc.verify(slid, 66), "{give_up:?}");
+            lc.graph.optimize(&lc.config.optimize);
+            before.between(&lc.graph.nodes()[66]).position().norm()
+        };
+        let claimed_m = moved_m(None);
+        let given_up_m = moved_m(Some(1.0));
+        assert!(claimed_m > 0.01, "{claimed_m}");
+        assert!(given_up_m < 0.001, "{given_up_m}");
     }
 
     #[test]
