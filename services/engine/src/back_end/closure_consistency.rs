@@ -207,8 +207,9 @@ fn mahalanobis_sq(e: &Vector3<f64>, cov: &Matrix3<f64>) -> f64 {
     }
 }
 
-/// Variance put on a direction a loop gives up, m² (a standard deviation of 100 m: no
-/// pull, and no say in a test).
+/// Variance put on a position direction a loop gives up, m²: (100 m)², nothing next to
+/// any chain's (no pull, no say in a test), yet finite, so the tests' inverses stay
+/// defined. Also what `unpin_featureless_direction` puts on a featureless direction.
 pub const GIVEN_UP_M2: f64 = 1e4;
 /// Variance put on a heading a loop gives up, rad².
 pub const GIVEN_UP_RAD2: f64 = 1e4;

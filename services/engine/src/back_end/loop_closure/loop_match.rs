@@ -7,7 +7,7 @@
 //! graph.
 
 use super::{LoopCloser, LoopClosureConfig, MatchedLoop};
-use crate::back_end::closure_consistency::{LoopHypothesis, two_way_distance_sq};
+use crate::back_end::closure_consistency::{GIVEN_UP_M2, LoopHypothesis, two_way_distance_sq};
 use crate::back_end::loop_closure::LoopClosure;
 use crate::back_end::pose_graph::Edge;
 use crate::scan_matching::correlative::{
@@ -134,7 +134,7 @@ impl LoopCloser {
         };
         let information = match unpinned {
             Some(u) => loop_information(
-                plateau + u * u.transpose() * UNPINNED_M2 + loop_noise,
+                plateau + u * u.transpose() * GIVEN_UP_M2 + loop_noise,
                 measurement.heading_rad,
                 c,
             )?,
@@ -335,10 +335,6 @@ fn outreach_m(reference: &[Point2], placed: &[Point2], u: (f64, f64)) -> f64 {
         _ => 0.0,
     }
 }
-
-/// Variance along a direction a loop does not pin, m²: (100 m)², nothing next to any
-/// chain's, yet a finite covariance keeps the consistency tests' inverses defined.
-const UNPINNED_M2: f64 = 1e4;
 
 #[cfg(test)]
 mod tests {
