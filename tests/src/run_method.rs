@@ -80,8 +80,8 @@ pub struct RunMethod {
     /// `graph` and `sketch`: how the scans' covariances between two keyframes make the
     /// step's (`MapperConfig::keyframe_step`) when set, the engine's default otherwise.
     pub keyframe_step: Option<KeyframeStepModel>,
-    /// Methods that close loops: a loop gives up the position directions where it is
-    /// looser than this times the chain (`LoopClosureConfig::give_up_beyond_chain`) when
+    /// Methods that close loops: a loop gives up the position directions and the heading
+    /// where it is looser than this times the chain (`LoopClosureConfig::give_up_beyond_chain`) when
     /// set (0: never), the engine's default otherwise.
     pub give_up_beyond_chain: Option<f64>,
     /// `evaluate --repeat`: sample `k` of the run turns the map frame by a further

@@ -179,8 +179,8 @@ struct Args {
     #[arg(long, value_parser = parse_keyframe_step)]
     keyframe_step: Option<KeyframeStepModel>,
     /// In-process runs of the methods that close loops: a loop gives up each position
-    /// direction along which it is looser than this many times the chain between its ends
-    /// (the engine's `give_up_beyond_chain`); 0: never.
+    /// direction, and its heading, where it is looser than this many times the chain
+    /// between its ends (the engine's `give_up_beyond_chain`); 0: never.
     #[arg(long)]
     give_up_beyond_chain: Option<f64>,
     /// Tell the mapper each simulated world's own wheel error model (its scenario's

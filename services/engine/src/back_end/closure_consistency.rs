@@ -44,9 +44,8 @@
 //! good scanner (generated office 43) where the chain since the last loop holds the
 //! heading to a fraction of a degree. In the chain tests of later loops it still counts
 //! as it claims (they may route through it, it may vouch for them). The rule trusts the
-//! chain's claim: where the chain
-//! is tighter than the front end's real drift (a long corridor it slides along), a right
-//! loop's correction is given up with it.
+//! chain's claim: where the chain is tighter than the front end's real drift (a long
+//! corridor it slides along), a right loop's correction is given up with it.
 //!
 //! # The chain's covariance
 //! Each sequential step `k` (keyframe `k−1 → k`, length `l_k`) adds independent noise of

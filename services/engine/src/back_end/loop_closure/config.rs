@@ -82,8 +82,8 @@ pub struct LoopClosureConfig {
     pub score_observed_only: bool,
     /// A loop gives up each position direction along which its standard deviation is
     /// above this times the chain's — what the route between its ends can have drifted,
-    /// through the last loops when that is tighter (`drift_since`) — in the test against
-    /// the chain and in its graph edge alike
+    /// through the last loops when that is tighter (`drift_since`) — and its heading when
+    /// that is, in the test against the chain and in its graph edge alike
     /// ([`crate::back_end::closure_consistency::given_up_to_chain`]; the module doc there,
     /// "What a loop adds"). 1: the match says less there than the graph already knows, and
     /// its top along a wide plateau carries a bias its covariance does not. `None` keeps
