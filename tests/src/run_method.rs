@@ -2,7 +2,7 @@
 //! of leaving them open (`graph-open`: the same front end with no back end), so a table can
 //! show what closing loops adds — or costs.
 
-use sketchslam_engine::back_end::loop_closure::LoopClosureConfig;
+use sketchslam_engine::back_end::loop_closure::{LoopClosureConfig, LoopHeadingSigma};
 use sketchslam_engine::back_end::pose_graph::{OptimizeConfig, Preconditioning};
 use sketchslam_engine::localization::mcl::MclConfig;
 use sketchslam_engine::localization::observation_model::ObservationModel;
@@ -84,6 +84,9 @@ pub struct RunMethod {
     /// where it is looser than this times the chain (`LoopClosureConfig::give_up_beyond_chain`) when
     /// set (0: never), the engine's default otherwise.
     pub give_up_beyond_chain: Option<f64>,
+    /// Methods that close loops: where a loop edge's heading deviation comes from
+    /// (`LoopClosureConfig::loop_heading`) when set, the engine's default otherwise.
+    pub loop_heading: Option<LoopHeadingSigma>,
     /// `evaluate --repeat`: sample `k` of the run turns the map frame by a further
     /// [`crate::samples::sample_turn_deg`]`(k)` (methods without a drawing) and adds `k` to
     /// the engine's seed. 0, the plain run, by default.
@@ -113,6 +116,7 @@ impl From<Method> for RunMethod {
             icp_hold_over_stretch: false,
             keyframe_step: None,
             give_up_beyond_chain: None,
+            loop_heading: None,
             sample: 0,
         }
     }
@@ -155,6 +159,7 @@ impl RunMethod {
                         Some(_) => None,
                         None => closure.give_up_beyond_chain,
                     },
+                    loop_heading: self.loop_heading.unwrap_or(closure.loop_heading),
                     optimize: OptimizeConfig {
                         preconditioning: self
                             .preconditioning
@@ -344,6 +349,20 @@ mod tests {
         assert_eq!(ratio(&m), Some(Some(2.0)));
         m.give_up_beyond_chain = Some(0.0);
         assert_eq!(ratio(&m), Some(None));
+    }
+
+    #[test]
+    fn the_loop_heading_asked_for_reaches_the_loop_closer() {
+        let heading = |m: &RunMethod| m.config(1).loop_closure.map(|c| c.loop_heading);
+        let mut m = RunMethod::from(Method::Graph);
+        assert_eq!(heading(&m), Some(LoopClosureConfig::default().loop_heading));
+        for asked in [
+            LoopHeadingSigma::Plateau,
+            LoopHeadingSigma::PlateauWithinSet,
+        ] {
+            m.loop_heading = Some(asked);
+            assert_eq!(heading(&m), Some(asked));
+        }
     }
 
     #[test]

@@ -36,6 +36,7 @@
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
+use sketchslam_engine::back_end::loop_closure::LoopHeadingSigma;
 use sketchslam_engine::back_end::pose_graph::Preconditioning;
 use sketchslam_engine::localization::observation_model::ObservationModel;
 use sketchslam_engine::mapper::{KeyframeStepModel, Method, SketchHeadingView};
@@ -183,6 +184,12 @@ struct Args {
     /// between its ends (the engine's `give_up_beyond_chain`); 0: never.
     #[arg(long)]
     give_up_beyond_chain: Option<f64>,
+    /// In-process runs of the methods that close loops: a loop edge's heading deviation
+    /// `set` (the engine's `loop_sigma_rad`, the default), read from the match's heading
+    /// `plateau`, or the tighter of both, `plateau-within-set` (the engine's
+    /// `loop_heading`).
+    #[arg(long, value_parser = parse_loop_heading)]
+    loop_heading: Option<LoopHeadingSigma>,
     /// Tell the mapper each simulated world's own wheel error model (its scenario's
     /// `[odometry]`, as the session request's `odometry_noise`) instead of the service's
     /// default, as a user who knows their robot would; datasets keep the default.
@@ -193,6 +200,17 @@ struct Args {
     /// seed + k, and print each run's median, best and worst over its samples.
     #[arg(long, default_value_t = 1)]
     repeat: usize,
+}
+
+fn parse_loop_heading(s: &str) -> Result<LoopHeadingSigma, String> {
+    match s {
+        "set" => Ok(LoopHeadingSigma::Set),
+        "plateau" => Ok(LoopHeadingSigma::Plateau),
+        "plateau-within-set" => Ok(LoopHeadingSigma::PlateauWithinSet),
+        other => Err(format!(
+            "`{other}`: `set`, `plateau` or `plateau-within-set`"
+        )),
+    }
 }
 
 fn parse_sketch_start(s: &str) -> Result<bool, String> {
@@ -341,6 +359,9 @@ fn main() -> Result<()> {
         ("0 (never) or above", |r| *r >= 0.0 && r.is_finite()),
         |m, &r| m.give_up_beyond_chain = Some(r),
     )?;
+    only.apply("--loop-heading", args.loop_heading, any(), |m, &h| {
+        m.loop_heading = Some(h)
+    })?;
     only.apply(
         "--icp-hold-min-points",
         args.icp_hold_min_points,

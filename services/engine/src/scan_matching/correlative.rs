@@ -166,6 +166,30 @@ impl LikelihoodField {
             .map_or(0.0, |(x, y)| self.fine[y * self.width + x] as f64)
     }
 
+    /// The field's likelihood at `p` interpolated bilinearly between the four nearest
+    /// cell centres (outside cells count 0): continuous in `p`, so a score read from it
+    /// changes with motions smaller than a cell.
+    pub fn likelihood_bilinear(&self, p: Point2) -> f64 {
+        let res = self.config.resolution_m;
+        let gx = (p.x - self.origin.x) / res - 0.5;
+        let gy = (p.y - self.origin.y) / res - 0.5;
+        if !(gx.is_finite() && gy.is_finite()) {
+            return 0.0;
+        }
+        let (x0, y0) = (gx.floor(), gy.floor());
+        let (fx, fy) = (gx - x0, gy - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let at = |x: i64, y: i64| {
+            if x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height {
+                self.fine[y as usize * self.width + x as usize] as f64
+            } else {
+                0.0
+            }
+        };
+        (1.0 - fy) * ((1.0 - fx) * at(x0, y0) + fx * at(x0 + 1, y0))
+            + fy * ((1.0 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1))
+    }
+
     fn cell(&self, p: Point2) -> Option<(usize, usize)> {
         let x = ((p.x - self.origin.x) / self.config.resolution_m).floor();
         let y = ((p.y - self.origin.y) / self.config.resolution_m).floor();
@@ -221,12 +245,7 @@ impl LikelihoodField {
         let res = self.config.resolution_m;
         let f = self.config.coarse_factor as i64;
         let n = points.len() as f32;
-        // Angular step (Hess et al. 2016, eq. 7): the farthest point moves about one cell.
-        let d_max = points.iter().map(Point2::norm).fold(res, f64::max);
-        let step_rad = (1.0 - res * res / (2.0 * d_max * d_max))
-            .clamp(-1.0, 1.0)
-            .acos()
-            .max(1e-4);
+        let step_rad = angular_step_rad(&points, res);
         let angle_steps = (window.angular_rad.max(0.0) / step_rad).ceil() as i64;
         let shift_cells = (window.linear_m.max(0.0) / res).ceil() as i64;
         let blocks = (2 * shift_cells + 1 + f - 1) / f;
@@ -341,6 +360,16 @@ pub fn plateau_spread(near: &[(f64, f64)], res: f64) -> ((f64, f64), [[f64; 2]; 
     ((mx, my), c)
 }
 
+/// The angular step of a search over `points` on cells of `res` m (Hess et al. 2016, eq. 7):
+/// the farthest point moves about one cell, `acos(1 − r²/2d²_max)`. O(n).
+pub(super) fn angular_step_rad(points: &[Point2], res: f64) -> f64 {
+    let d_max = points.iter().map(Point2::norm).fold(res, f64::max);
+    (1.0 - res * res / (2.0 * d_max * d_max))
+        .clamp(-1.0, 1.0)
+        .acos()
+        .max(1e-4)
+}
+
 /// The smallest box holding the finite `points`, as (lower-left, upper-right) corners;
 /// `None` without a finite point. O(n).
 pub fn bounding_box(points: impl IntoIterator<Item = Point2>) -> Option<(Point2, Point2)> {
@@ -398,7 +427,7 @@ pub(crate) mod tests {
 
     /// Points every 2 cm along the walls of an L-shaped room corner set: a 6 × 4 m box
     /// with an inner 1 m pillar, so no shift or turn maps it onto itself.
-    fn room() -> Vec<Point2> {
+    pub(crate) fn room() -> Vec<Point2> {
         let mut pts = Vec::new();
         let mut wall = |a: Point2, b: Point2| {
             let n = (a.distance(&b) / 0.02).ceil() as usize;

@@ -8,10 +8,13 @@
 //! - [`odometry_noise`]: how far the odometry's guess can be off, so whether ICP can start
 //!   from it;
 //! - [`correlative`]: Olson's correlative scan matching with branch and bound;
+//! - [`heading_plateau`]: how well a correlative match pins its heading (the angular
+//!   twin of its translation plateau);
 //! - [`observed_region`]: where a reference looked, and a correlative match re-placed by
 //!   its score over that region only (no pull toward more overlap).
 
 pub mod correlative;
+pub mod heading_plateau;
 pub mod icp;
 pub mod motion_prior;
 pub mod observed_region;

@@ -6,7 +6,7 @@
 //! the consistency tests ([`crate::back_end::closure_consistency`]) before it enters the
 //! graph.
 
-use super::{LoopCloser, LoopClosureConfig, MatchedLoop};
+use super::{LoopCloser, LoopClosureConfig, LoopHeadingSigma, MatchedLoop};
 use crate::back_end::closure_consistency::{GIVEN_UP_M2, LoopHypothesis, two_way_distance_sq};
 use crate::back_end::loop_closure::LoopClosure;
 use crate::back_end::pose_graph::Edge;
@@ -122,7 +122,8 @@ impl LoopCloser {
         // gives up the weakest direction when the plateau along it is a featureless hump
         // (a corridor seen from its other end): there it pins nothing, and the loops of
         // one pass share its bias, so they must not add up to a pull along the corridor.
-        let claimed = loop_information(plateau + loop_noise, measurement.heading_rad, c)?;
+        let heading_var = self.heading_variance(&field, &query, &found.pose, window);
+        let claimed = loop_information(plateau + loop_noise, measurement.heading_rad, heading_var)?;
         let unpinned = if c.unpin_featureless_direction {
             let placed: Vec<Point2> = query
                 .iter()
@@ -136,7 +137,7 @@ impl LoopCloser {
             Some(u) => loop_information(
                 plateau + u * u.transpose() * GIVEN_UP_M2 + loop_noise,
                 measurement.heading_rad,
-                c,
+                heading_var,
             )?,
             None => claimed,
         };
@@ -208,8 +209,10 @@ impl LoopCloser {
             c.plateau_fraction,
         ));
         let loop_noise = nalgebra::Matrix2::identity() * (c.loop_sigma_m * c.loop_sigma_m);
-        let Some(reverse_cov) = loop_information(plateau + loop_noise, reverse.heading_rad, c)
-            .and_then(|info| info.try_inverse())
+        let heading_var = self.heading_variance(&field, &query, &back.pose, window);
+        let Some(reverse_cov) =
+            loop_information(plateau + loop_noise, reverse.heading_rad, heading_var)
+                .and_then(|info| info.try_inverse())
         else {
             return false;
         };
@@ -220,6 +223,33 @@ impl LoopCloser {
             &reverse_cov,
         );
         d2 <= c.consistency_chi2
+    }
+
+    /// A loop edge's heading variance, rad², as `loop_heading` asks
+    /// ([`LoopHeadingSigma`]): `loop_sigma_rad²`, or the match's own — the heading plateau
+    /// of `query` at `top` ([`LikelihoodField::heading_variance`], within the search's
+    /// angular window) plus the loop's position noise `loop_sigma_m` at the points' rms
+    /// range, as the translation's plateau gets `loop_sigma_m²` — or the smaller of both.
+    fn heading_variance(
+        &self,
+        field: &LikelihoodField,
+        query: &[Point2],
+        top: &Pose2,
+        window: &SearchWindow,
+    ) -> f64 {
+        let c = &self.config;
+        let set = c.loop_sigma_rad.max(1e-5).powi(2);
+        let measured = || {
+            let range_sq_m2 =
+                query.iter().map(|p| p.norm().powi(2)).sum::<f64>() / query.len().max(1) as f64;
+            let lever_rad2 = c.loop_sigma_m.powi(2) / range_sq_m2.max(c.loop_sigma_m.powi(2));
+            field.heading_variance(query, top, window.angular_rad, c.plateau_fraction) + lever_rad2
+        };
+        match c.loop_heading {
+            LoopHeadingSigma::Set => set,
+            LoopHeadingSigma::Plateau => measured(),
+            LoopHeadingSigma::PlateauWithinSet => measured().min(set),
+        }
     }
 
     /// `found` refined by point-to-line ICP of `scan` against `local`, when ICP converges
@@ -256,22 +286,22 @@ fn placed_box(points: &[Point2], guess: &Pose2, margin_m: f64) -> (Point2, Point
 }
 
 /// A loop edge's information from its translation covariance `cov_xy` (m², in `old`'s
-/// frame, as the plateau is) and the loop heading sigma; the edge's error is in the frame
-/// of the measurement (rotated by its `heading_rad`). `None` when `cov_xy` is singular.
+/// frame, as the plateau is) and its heading variance `heading_var_rad2`; the edge's error
+/// is in the frame of the measurement (rotated by its `heading_rad`). `None` when `cov_xy`
+/// is singular.
 fn loop_information(
     cov_xy: nalgebra::Matrix2<f64>,
     heading_rad: f64,
-    c: &LoopClosureConfig,
+    heading_var_rad2: f64,
 ) -> Option<Matrix3<f64>> {
     let info_xy = cov_xy.try_inverse()?;
     let (sin, cos) = heading_rad.sin_cos();
     let r = nalgebra::Matrix2::new(cos, -sin, sin, cos);
     let info_xy = r.transpose() * info_xy * r;
     let info_xy = 0.5 * (info_xy + info_xy.transpose());
-    let sr = c.loop_sigma_rad.max(1e-5);
     let mut information = Matrix3::zeros();
     information.fixed_view_mut::<2, 2>(0, 0).copy_from(&info_xy);
-    information[(2, 2)] = 1.0 / (sr * sr);
+    information[(2, 2)] = 1.0 / heading_var_rad2.max(1e-10);
     Some(information)
 }
 

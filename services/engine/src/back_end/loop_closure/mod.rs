@@ -43,7 +43,7 @@ use sketchslam_types::{Point2, Pose2, wrap_angle};
 mod config;
 mod loop_match;
 
-pub use config::{LoopClosureConfig, SequentialNoise};
+pub use config::{LoopClosureConfig, LoopHeadingSigma, SequentialNoise};
 
 /// A loop edge the back end added.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -687,6 +687,21 @@ mod tests {
             two_way_check: true,
             ..LoopClosureConfig::default()
         });
+    }
+
+    #[test]
+    fn a_drifted_return_is_closed_with_the_heading_from_the_plateau_too() {
+        // The room's walls pin each match's heading: the loops close as with a set degree.
+        for loop_heading in [
+            LoopHeadingSigma::Plateau,
+            LoopHeadingSigma::PlateauWithinSet,
+        ] {
+            drifted_return_is_closed(LoopClosureConfig {
+                min_travel_m: 5.0,
+                loop_heading,
+                ..LoopClosureConfig::default()
+            });
+        }
     }
 
     #[test]
