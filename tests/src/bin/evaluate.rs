@@ -185,8 +185,8 @@ struct Args {
     #[arg(long)]
     give_up_beyond_chain: Option<f64>,
     /// In-process runs of the methods that close loops: a loop edge's heading deviation
-    /// `set` (the engine's `loop_sigma_rad`), read from the match's heading `plateau`, or
-    /// the tighter of both, `plateau-within-set` (the default; the engine's
+    /// `set` (the engine's `loop_sigma_rad`, the default), read from the match's heading
+    /// `plateau`, or the tighter of both, `plateau-within-set` (the engine's
     /// `loop_heading`).
     #[arg(long, value_parser = parse_loop_heading)]
     loop_heading: Option<LoopHeadingSigma>,

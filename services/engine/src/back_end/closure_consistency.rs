@@ -39,10 +39,10 @@
 //! a match 1.5 m off along a corridor with σ = 0.5 m there is not tested (nor pulled) along
 //! it when the chain since the last loop holds the route to 0.07 m, while the same match
 //! after a long unclosed route, where the chain is looser than it, keeps its say. The
-//! heading likewise: with a loop's heading deviation set (`LoopClosureConfig::loop_sigma_rad`,
-//! 1°, before `LoopClosureConfig::loop_heading` read it from the match), matches 1.4–2.8°
-//! off passed that test on a good scanner (generated office 43) where the chain since the
-//! last loop holds the heading to a fraction of a degree. In the chain tests of later loops it still counts
+//! heading likewise: a loop's heading deviation is not measured but set
+//! (`LoopClosureConfig::loop_sigma_rad`, 1°), and matches 1.4–2.8° off pass that test on a
+//! good scanner (generated office 43) where the chain since the last loop holds the
+//! heading to a fraction of a degree. In the chain tests of later loops it still counts
 //! as it claims (they may route through it, it may vouch for them). The rule trusts the
 //! chain's claim: where the chain is tighter than the front end's real drift (a long
 //! corridor it slides along), a right loop's correction is given up with it.

@@ -133,13 +133,12 @@ pub struct LoopClosureConfig {
     /// bound of `PlateauWithinSet`).
     pub loop_sigma_rad: f64,
     /// Where a loop edge's heading deviation comes from ([`LoopHeadingSigma`]). Default
-    /// `PlateauWithinSet`, measured 2026-12-07 (`graph`, release, in-process; README, "A
-    /// loop's heading from its match") against `Set`: on 60 generated worlds map error
-    /// median / p90 / worst 0.014 / 0.063 / 0.696 → 0.012 / 0.042 / 0.241 m, ATE worst
-    /// 2.359 → 1.585 m, completeness worst 0.192 → 0.513, worlds closing worse than open
-    /// 9 → 4; paper-env2 0.034 → 0.012 m, school 0.045 → 0.049 m, CSAIL 0.049
-    /// [0.046–0.083] → 0.046 [0.044–0.051] m over five frame turns, Intel 0.074 m both.
-    /// `Plateau` alone, on seeds 1–30: worst 0.073 → 0.098 m, completeness 0.72.
+    /// `Set`. Measured 2026-12-07 (`graph`, seeds 1–30; README, "A loop's heading from its
+    /// match"): `PlateauWithinSet` 0.014 / 0.046 / 0.073 → 0.012 / 0.031 / 0.075 m, 10
+    /// worlds better and 2 worse, paper-env2 0.034 → 0.012 m, school 0.045 → 0.049 m,
+    /// CSAIL 0.049 [0.046–0.083] → 0.046 [0.044–0.051] m over five frame turns, Intel
+    /// 0.074 m both; `Plateau` worse (worst 0.098 m, completeness 0.72). Not yet run on a
+    /// second sample of worlds.
     pub loop_heading: LoopHeadingSigma,
     /// Huber width of loop edges on the Mahalanobis distance.
     pub loop_huber: f64,
@@ -251,7 +250,7 @@ impl Default for LoopClosureConfig {
             sequential_noise: SequentialNoise::FrontEnd,
             loop_sigma_m: 0.05,
             loop_sigma_rad: 1f64.to_radians(),
-            loop_heading: LoopHeadingSigma::PlateauWithinSet,
+            loop_heading: LoopHeadingSigma::Set,
             loop_huber: 2.0,
             heading_prior_sigma_rad: Some(2f64.to_radians()),
             heading_prior_huber: 2.0,
@@ -272,7 +271,8 @@ impl Default for LoopClosureConfig {
 /// ([`LoopClosureConfig::loop_heading`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum LoopHeadingSigma {
-    /// `loop_sigma_rad` for every loop (the default before 2026-12-07).
+    /// `loop_sigma_rad` for every loop.
+    #[default]
     Set,
     /// The match's own: its heading plateau
     /// ([`crate::scan_matching::heading_plateau`]) plus `loop_sigma_m` at the scan points'
@@ -283,8 +283,7 @@ pub enum LoopHeadingSigma {
     /// is what the likelihood field resolves, wider than ICP's refinement in a small room;
     /// `loop_sigma_rad` what the matcher's loops were measured off by, within 0.5° for
     /// 401 of 413 on a good scanner), so the plateau may tighten the set figure where the
-    /// scan's lever arms resolve the heading better, never loosen it. The default.
-    #[default]
+    /// scan's lever arms resolve the heading better, never loosen it.
     PlateauWithinSet,
 }
 
