@@ -143,7 +143,10 @@ pub enum Preconditioning {
     /// after turning round there, where block Jacobi's run slid 0.4 m and a loop took it
     /// out; the right loops that come later bend the route around the slide — a draw of
     /// the front end, not of the solver; README "Generated worlds"); paper-env2 0.034 →
-    /// 0.006 m.
+    /// 0.006 m. With the loop heading read from the match (2026-12-07) the chain mends
+    /// `sketch` on school (0.097 → 0.024 m: block Jacobi's unfinished solve had bent it)
+    /// but breaks CSAIL on two frame turns of five (0.228, 0.101 m): an exact solve
+    /// carries a wrong loop across the route where this one kept it local.
     #[default]
     BlockJacobi,
 }

@@ -139,7 +139,11 @@ pub struct LoopClosureConfig {
     /// CSAIL 0.049 [0.046–0.083] → 0.046 [0.044–0.051] m over five frame turns, Intel
     /// 0.074 m both; `Plateau` worse (worst 0.098 m, completeness 0.72). On 60 worlds
     /// `PlateauWithinSet` 0.014 / 0.063 / 0.696 → 0.012 / 0.042 / 0.241 m, closing worse 9
-    /// → 4, but `sketch` on school's rough drawing 0.040 → 0.097 m: not the default.
+    /// → 4, but `sketch` on school's rough drawing 0.040 → 0.097 m: not the default. That
+    /// doubling is block Jacobi's unfinished solve (every loop in the graph right; the
+    /// chain preconditioner gives 0.024 m, squeezed 0.012 m), but with the chain CSAIL
+    /// breaks on two frame turns of five (0.228, 0.101 m) and the worst generated world is
+    /// 0.166 m (README, "School's doubling is the block-Jacobi solve stopping short").
     pub loop_heading: LoopHeadingSigma,
     /// Huber width of loop edges on the Mahalanobis distance.
     pub loop_huber: f64,
