@@ -47,22 +47,29 @@ pub fn audit(closed: &[ClosedLoop], truth: &[StampedPose]) -> Vec<AuditedLoop> {
         .collect()
 }
 
-/// `loops.csv`: one row per loop, stamps in seconds.
+/// `loops.csv`: one row per loop, stamps in seconds; with the match's score and the chain
+/// test each loop passed (its d² and the chain's deviation, meters), so a wrong loop's row
+/// tells whether the match or the test let it in.
 pub fn loops_csv(loops: &[AuditedLoop]) -> String {
-    let mut csv = String::from("from_t,to_t,x,y,theta,error_m,error_deg,off\n");
+    let mut csv =
+        String::from("from_t,to_t,x,y,theta,error_m,error_deg,off,score,chain_d2,chain_sigma_m\n");
     for l in loops {
-        let m = l.closed.measurement;
+        let c = &l.closed;
+        let m = c.measurement;
         let _ = writeln!(
             csv,
-            "{:.6},{:.6},{:.4},{:.4},{:.5},{:.4},{:.3},{}",
-            l.closed.from_stamp_ns as f64 * 1e-9,
-            l.closed.to_stamp_ns as f64 * 1e-9,
+            "{:.6},{:.6},{:.4},{:.4},{:.5},{:.4},{:.3},{},{:.3},{:.3},{:.4}",
+            c.from_stamp_ns as f64 * 1e-9,
+            c.to_stamp_ns as f64 * 1e-9,
             m.x,
             m.y,
             m.heading_rad,
             l.error_m,
             l.error_deg,
-            u8::from(l.is_off())
+            u8::from(l.is_off()),
+            c.score,
+            c.chain_d2,
+            c.chain_sigma_m
         );
     }
     csv
@@ -90,6 +97,9 @@ mod tests {
             from_stamp_ns: 1_000_000_000,
             to_stamp_ns: 2_000_000_000,
             measurement: Pose2::new(2.3, 0.0, 2f64.to_radians()),
+            score: 0.9,
+            chain_d2: 2.5,
+            chain_sigma_m: 0.4,
         };
         let audited = audit(&[closed], &truth);
         assert_eq!(audited.len(), 1);
@@ -107,5 +117,33 @@ mod tests {
             ..closed
         };
         assert!(audit(&[outside], &truth).is_empty());
+    }
+
+    #[test]
+    fn loops_csv_carries_the_match_score_and_the_chain_test() {
+        let closed = ClosedLoop {
+            from_stamp_ns: 1_500_000_000,
+            to_stamp_ns: 9_250_000_000,
+            measurement: Pose2::new(3.0, -0.25, 0.5),
+            score: 0.8,
+            chain_d2: 4.5,
+            chain_sigma_m: 1.25,
+        };
+        let audited = AuditedLoop {
+            closed,
+            error_m: 3.25,
+            error_deg: -0.5,
+        };
+        let csv = loops_csv(&[audited]);
+        let mut lines = csv.lines();
+        assert_eq!(
+            lines.next(),
+            Some("from_t,to_t,x,y,theta,error_m,error_deg,off,score,chain_d2,chain_sigma_m")
+        );
+        assert_eq!(
+            lines.next(),
+            Some("1.500000,9.250000,3.0000,-0.2500,0.50000,3.2500,-0.500,1,0.800,4.500,1.2500")
+        );
+        assert_eq!(lines.next(), None);
     }
 }

@@ -614,15 +614,20 @@ impl Mapper {
     pub fn closed_loops(&self) -> Option<Vec<ClosedLoop>> {
         let back_end = self.back_end.as_ref()?;
         let stamps = &back_end.keyframe_stamps_ns;
-        let loops = back_end
-            .closer
+        let closer = &back_end.closer;
+        // `loops` and `closures` share their index (the loop closer keeps them together).
+        let loops = closer
             .loops()
             .iter()
-            .filter_map(|l| {
+            .zip(closer.closures())
+            .filter_map(|(l, c)| {
                 Some(ClosedLoop {
                     from_stamp_ns: *stamps.get(l.from)?,
                     to_stamp_ns: *stamps.get(l.to)?,
                     measurement: self.mount.relative_to_robot(l.measurement),
+                    score: c.score,
+                    chain_d2: c.chain_d2,
+                    chain_sigma_m: c.chain_sigma_m,
                 })
             })
             .collect();

@@ -44,6 +44,13 @@ pub struct ClosedLoop {
     pub to_stamp_ns: u64,
     /// The newer keyframe's pose in the earlier one's frame, as the match found it.
     pub measurement: Pose2,
+    /// The match's score, 0..1.
+    pub score: f64,
+    /// The chain test's squared Mahalanobis distance when the loop was verified (against
+    /// the loop closer's `consistency_chi2`, 11.34 by default).
+    pub chain_d2: f64,
+    /// The deviation the chain between the two keyframes was given in that test, meters.
+    pub chain_sigma_m: f64,
 }
 
 /// What gave a pose on the drawing.

@@ -163,6 +163,8 @@ impl LoopCloser {
             from: old,
             to: new,
             score,
+            chain_d2: f64::NAN,
+            chain_sigma_m: f64::NAN,
         };
         Some(MatchedLoop {
             closure,

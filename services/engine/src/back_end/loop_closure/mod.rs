@@ -54,6 +54,13 @@ pub struct LoopClosure {
     pub to: usize,
     /// Mean likelihood of the match, 0..1.
     pub score: f64,
+    /// The chain test's squared Mahalanobis distance when the loop was verified
+    /// ([`crate::back_end::closure_consistency::prior_distance_sq`], against
+    /// `consistency_chi2`); NaN before it was.
+    pub chain_d2: f64,
+    /// The standard deviation the chain between the loop's ends was given in that test,
+    /// meters (position, widest direction; [`ChainVariance`]); NaN before it was.
+    pub chain_sigma_m: f64,
 }
 
 /// What adding a keyframe did.
@@ -352,6 +359,8 @@ impl LoopCloser {
             self.rejected += 1;
             return false;
         }
+        found.closure.chain_d2 = d2;
+        found.closure.chain_sigma_m = chain.position_m2.max(0.0).sqrt();
         let agree = |a: &LoopHypothesis, b: &LoopHypothesis| {
             pair_distance_sq(nodes, a, b, &noise) <= c.consistency_chi2
         };
@@ -791,6 +800,16 @@ mod tests {
             "{got:?} vs {expected:?}"
         );
         assert!(lc.closures().iter().all(|c| c.score >= 0.6));
+        // Each loop keeps the chain test it passed: within the bound, over a chain that
+        // was given some drift.
+        let chi2 = LoopClosureConfig::default().consistency_chi2;
+        for c in lc.closures() {
+            assert!((0.0..=chi2).contains(&c.chain_d2), "{c:?}");
+            assert!(
+                c.chain_sigma_m > 0.0 && c.chain_sigma_m.is_finite(),
+                "{c:?}"
+            );
+        }
     }
 
     #[test]
@@ -853,6 +872,8 @@ mod tests {
                 from,
                 to,
                 score: 0.9,
+                chain_d2: f64::NAN,
+                chain_sigma_m: f64::NAN,
             },
             hypothesis: LoopHypothesis {
                 from,
