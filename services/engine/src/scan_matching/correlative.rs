@@ -179,13 +179,7 @@ impl LikelihoodField {
         let (x0, y0) = (gx.floor(), gy.floor());
         let (fx, fy) = (gx - x0, gy - y0);
         let (x0, y0) = (x0 as i64, y0 as i64);
-        let at = |x: i64, y: i64| {
-            if x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height {
-                self.fine[y as usize * self.width + x as usize] as f64
-            } else {
-                0.0
-            }
-        };
+        let at = |x: i64, y: i64| self.table_at(&self.fine, x, y) as f64;
         (1.0 - fy) * ((1.0 - fx) * at(x0, y0) + fx * at(x0 + 1, y0))
             + fy * ((1.0 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1))
     }
@@ -215,15 +209,23 @@ impl LikelihoodField {
 
     /// Sum of `table` at the cells of `cells` shifted by (dx, dy); outside cells count 0.
     fn sum_at(&self, table: &[f32], cells: &[(i64, i64)], dx: i64, dy: i64) -> f32 {
-        let (w, h) = (self.width as i64, self.height as i64);
         let mut sum = 0f32;
         for &(x, y) in cells {
-            let (x, y) = (x + dx, y + dy);
-            if x >= 0 && y >= 0 && x < w && y < h {
-                sum += table[(y * w + x) as usize];
-            }
+            sum += self.table_at(table, x + dx, y + dy);
         }
         sum
+    }
+
+    /// `table`'s value (the fine or the coarse field, laid out as the grid) at cell
+    /// `(x, y)`; 0 outside the grid.
+    #[inline]
+    fn table_at(&self, table: &[f32], x: i64, y: i64) -> f32 {
+        let (w, h) = (self.width as i64, self.height as i64);
+        if x >= 0 && y >= 0 && x < w && y < h {
+            table[(y * w + x) as usize]
+        } else {
+            0.0
+        }
     }
 
     /// The best pose of `points` within `window` around `guess`, by branch and bound;
