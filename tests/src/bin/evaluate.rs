@@ -203,14 +203,7 @@ struct Args {
 }
 
 fn parse_loop_heading(s: &str) -> Result<LoopHeadingSigma, String> {
-    match s {
-        "set" => Ok(LoopHeadingSigma::Set),
-        "plateau" => Ok(LoopHeadingSigma::Plateau),
-        "plateau-within-set" => Ok(LoopHeadingSigma::PlateauWithinSet),
-        other => Err(format!(
-            "`{other}`: `set`, `plateau` or `plateau-within-set`"
-        )),
-    }
+    by_wire_name(s, "set, plateau or plateau-within-set")
 }
 
 fn parse_sketch_start(s: &str) -> Result<bool, String> {

@@ -274,7 +274,8 @@ impl Default for LoopClosureConfig {
 
 /// Where a loop edge's heading deviation comes from
 /// ([`LoopClosureConfig::loop_heading`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum LoopHeadingSigma {
     /// `loop_sigma_rad` for every loop.
     #[default]
