@@ -58,7 +58,12 @@
 //! `σ²_pos = Σ_k σ²_k + σ²_θk |p_end − p_k|²`,   `σ²_θ = Σ_k σ²_θk`
 //!
 //! (isotropic: the direction of the swing is dropped, which errs towards accepting). Cost:
-//! O(|to − from|) per chain.
+//! O(|to − from|) per chain. Its whole form ([`chain_covariance`], chosen by
+//! `LoopClosureConfig::chain_shape`) keeps each step's covariance as the front end gave it
+//! (tight across a corridor, loose along it where the scans did not measure the axis) and
+//! the swing across the lever only, `Σ_chain = Σ_k G_k Σ_k G_kᵀ`; a route down a corridor
+//! and back then has its heading errors swing the loop's end across the corridor, not
+//! along it, where look-alike doors in a row lie.
 //!
 //! Pure: values in, values out.
 
@@ -130,6 +135,13 @@ pub trait StepVariance {
     /// Position variance (isotropic) and heading variance of step `k` (keyframe `k − 1 → k`),
     /// `step_m` long.
     fn step(&self, k: usize, step_m: f64) -> ChainVariance;
+
+    /// Step `k`'s whole (x, y, heading) covariance, translation on the map's axes, as
+    /// [`chain_covariance`] reads it: by default the isotropic [`StepVariance::step`] as a
+    /// diagonal.
+    fn step_covariance(&self, k: usize, step_m: f64) -> Matrix3<f64> {
+        self.step(k, step_m).matrix()
+    }
 }
 
 impl StepNoise {
@@ -155,6 +167,9 @@ impl StepVariance for StepNoise {
 pub struct MeasuredSteps<'a> {
     /// Variance of step `k` at index `k`.
     pub steps: &'a [ChainVariance],
+    /// Whole covariance of step `k` at index `k` (map axes); a step beyond this slice
+    /// falls back to `steps`' isotropic figure.
+    pub covariances: &'a [Matrix3<f64>],
     /// For steps not measured.
     pub model: StepNoise,
 }
@@ -164,6 +179,13 @@ impl StepVariance for MeasuredSteps<'_> {
         match self.steps.get(k) {
             Some(v) => *v,
             None => self.model.step(k, step_m),
+        }
+    }
+
+    fn step_covariance(&self, k: usize, step_m: f64) -> Matrix3<f64> {
+        match self.covariances.get(k) {
+            Some(c) => *c,
+            None => self.step(k, step_m).matrix(),
         }
     }
 }
@@ -189,6 +211,63 @@ pub fn chain_variance(
         v.heading_rad2 += step.heading_rad2;
     }
     v
+}
+
+/// The whole covariance (x, y, heading; map axes) of the end of the chain between
+/// keyframes `a` and `b` (either order) at `lever_end`, the anisotropic form of
+/// [`chain_variance`] (module doc, "The chain's covariance"): a step's error `δ_k =
+/// (δx, δy, δθ)` moves keyframe `k` by `(δx, δy)` and turns the rest of the chain about
+/// it, so it moves the end by `G_k δ_k`, `G_k = [[1, 0, −(y_end − y_k)], [0, 1, x_end −
+/// x_k], [0, 0, 1]]` (first order), and
+///
+/// `Σ_chain = Σ_k G_k Σ_k G_kᵀ`
+///
+/// with `Σ_k` the step's own ([`StepVariance::step_covariance`]). A chain down a corridor
+/// and back keeps what each step's scans pinned: its heading errors swing the end across
+/// the corridor, not along it, and its steps' along-axis variance is only what the
+/// front end left unmeasured there. O(|b − a|).
+pub fn chain_covariance(
+    nodes: &[Pose2],
+    a: usize,
+    b: usize,
+    noise: &dyn StepVariance,
+    lever_end: Point2,
+) -> Matrix3<f64> {
+    let (lo, hi) = (a.min(b), a.max(b).min(nodes.len().saturating_sub(1)));
+    let mut sum = Matrix3::zeros();
+    for k in lo + 1..=hi {
+        let p = nodes[k].position();
+        let step = noise.step_covariance(k, p.distance(&nodes[k - 1].position()));
+        let g = swing(p, lever_end);
+        sum += g * step * g.transpose();
+    }
+    sum
+}
+
+/// `G` of [`chain_covariance`]: a small `(δx, δy, δθ)` at `pivot` moves a point at `end`
+/// by `(δx − δθ (y_end − y_pivot), δy + δθ (x_end − x_pivot))` and turns it by `δθ`.
+pub fn swing(pivot: Point2, end: Point2) -> Matrix3<f64> {
+    Matrix3::new(
+        1.0,
+        0.0,
+        -(end.y - pivot.y),
+        0.0,
+        1.0,
+        end.x - pivot.x,
+        0.0,
+        0.0,
+        1.0,
+    )
+}
+
+/// The largest position variance of a whole (x, y, heading) covariance, m²: its 2×2
+/// block's larger eigenvalue. O(1).
+pub fn widest_m2(covariance: &Matrix3<f64>) -> f64 {
+    covariance
+        .fixed_view::<2, 2>(0, 0)
+        .into_owned()
+        .symmetric_eigenvalues()
+        .max()
 }
 
 /// `t2v(Z⁻¹ · actual)`: how far `actual` is from the measurement `z`, in `z`'s frame, the
@@ -252,6 +331,27 @@ pub fn prior_distance_sq(nodes: &[Pose2], loop_: &LoopHypothesis, chain: ChainVa
     let estimate = nodes[loop_.from].between(&nodes[loop_.to]);
     let e = residual(&loop_.measurement, &estimate);
     mahalanobis_sq(&e, &(loop_.covariance + chain.matrix()))
+}
+
+/// Test 1 with the chain's whole covariance `chain_map` (map axes, [`chain_covariance`]):
+/// the residual `t2v(Z⁻¹ X_a⁻¹ X_b)` moves by `R(θ_b)ᵀ δp` when `X_b` moves by `δp` on the
+/// map (to first order, `θ_a + θ_Z ≈ θ_b`), so `d² = eᵀ (Σ_Z + T Σ_chain Tᵀ)⁻¹ e` with `T =
+/// diag(R(θ_b)ᵀ, 1)`. O(1).
+pub fn prior_distance_sq_full(
+    nodes: &[Pose2],
+    loop_: &LoopHypothesis,
+    chain_map: &Matrix3<f64>,
+) -> f64 {
+    let estimate = nodes[loop_.from].between(&nodes[loop_.to]);
+    let e = residual(&loop_.measurement, &estimate);
+    let t = to_frame(nodes[loop_.to].heading_rad);
+    mahalanobis_sq(&e, &(loop_.covariance + t * chain_map * t.transpose()))
+}
+
+/// `diag(R(θ)ᵀ, 1)`: map axes into the axes of a frame turned by `heading_rad`.
+pub fn to_frame(heading_rad: f64) -> Matrix3<f64> {
+    let (s, c) = heading_rad.sin_cos();
+    Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0)
 }
 
 /// Test 2 of the module doc: the squared Mahalanobis distance between loop `second` and
@@ -331,6 +431,7 @@ pub fn two_way_distance_sq(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::FRAC_PI_2;
 
     const NOISE: StepNoise = StepNoise {
         sigma_m: 0.02,
@@ -450,6 +551,7 @@ mod tests {
         ];
         let measured = MeasuredSteps {
             steps: &steps,
+            covariances: &[],
             model: NOISE,
         };
         let nodes = straight(4);
@@ -517,5 +619,63 @@ mod tests {
         let turned = Pose2::new(1.0, 0.0, std::f64::consts::FRAC_PI_2);
         let d2 = two_way_distance_sq(&turned, &cov, &turned.inverse(), &cov);
         assert!(d2 < 1e-20, "{d2}");
+    }
+
+    #[test]
+    fn a_corridors_chain_by_hand_is_loose_along_and_tight_across() {
+        // Three unit steps along x, each loose along the corridor (0.2 m) and tight across
+        // (0.01 m) and in heading (0.01 rad); end at x = 3, levers 2, 1, 0 m. G_k moves
+        // the heading's error onto y only: xx = 3·0.04, yy = 3·1e-4 + 1e-4·(2² + 1² + 0²),
+        // yθ = 1e-4·(2 + 1 + 0), θθ = 3·1e-4, no xy or xθ.
+        let step = Matrix3::from_diagonal(&Vector3::new(0.04, 1e-4, 1e-4));
+        let covariances = [Matrix3::zeros(), step, step, step];
+        let measured = MeasuredSteps {
+            steps: &[],
+            covariances: &covariances,
+            model: NOISE,
+        };
+        let mut nodes = straight(4);
+        let full = chain_covariance(&nodes, 0, 3, &measured, nodes[3].position());
+        let expected = Matrix3::new(0.12, 0.0, 0.0, 0.0, 8e-4, 3e-4, 0.0, 3e-4, 3e-4);
+        assert!((full - expected).abs().max() < 1e-12, "{full}");
+        assert!((widest_m2(&full) - 0.12).abs() < 1e-12);
+        // The same steps without covariances: the isotropic figures as a diagonal.
+        let by_model = chain_covariance(&nodes, 0, 3, &NOISE, nodes[3].position());
+        let v = chain_variance(&nodes, 0, 3, &NOISE, nodes[3].position());
+        assert!(
+            (by_model[(0, 0)] - 3.0 * 0.0004).abs() < 1e-12,
+            "{by_model}"
+        );
+        assert!((by_model[(0, 0)] + by_model[(1, 1)] - 2.0 * 0.0012 - 5e-4).abs() < 1e-12);
+        assert!((by_model[(2, 2)] - v.heading_rad2).abs() < 1e-12);
+
+        // The loop's end faces up the page (heading 90°): the map's x is its frame's −y.
+        nodes[3].heading_rad = FRAC_PI_2;
+        let cov = Matrix3::from_diagonal(&Vector3::new(0.01, 0.01, 1e-4));
+        let isotropic = ChainVariance {
+            position_m2: widest_m2(&full) + 1e-4 * 5.0,
+            heading_rad2: 3e-4,
+        };
+        // 0.3 m off along the corridor (map x): d² = 0.09 / (0.01 + 0.12) either way.
+        let along = LoopHypothesis {
+            from: 0,
+            to: 3,
+            measurement: Pose2::new(3.3, 0.0, FRAC_PI_2),
+            covariance: cov,
+        };
+        let d2 = prior_distance_sq_full(&nodes, &along, &full);
+        assert!((d2 - 0.09 / 0.13).abs() < 1e-9, "{d2}");
+        // 0.3 m off across it (map y): the isotropic chain lets it pass at d² ≈ 0.69; the
+        // whole one, tight across and its heading coupled to y, holds it to
+        // 0.09 · 4e-4 / (0.0108 · 4e-4 − (3e-4)²) ≈ 8.51.
+        let across = LoopHypothesis {
+            measurement: Pose2::new(3.0, 0.3, FRAC_PI_2),
+            ..along
+        };
+        let d2 = prior_distance_sq_full(&nodes, &across, &full);
+        let hand = 0.09 * 4e-4 / (0.0108 * 4e-4 - 9e-8);
+        assert!((d2 - hand).abs() < 1e-9, "{d2} {hand}");
+        let loose = prior_distance_sq(&nodes, &across, isotropic);
+        assert!((loose - 0.09 / (0.01 + 0.1205)).abs() < 1e-9, "{loose}");
     }
 }

@@ -102,6 +102,18 @@ pub struct LoopClosureConfig {
     /// step: 0.014 / 0.063 / 0.696 → 0.015 / 0.064 / 0.248 m, closing worse 9 → 10, CSAIL
     /// 0.045–0.046 m on all five turns, Intel 0.074 → 0.077 m.
     pub give_up_beyond_chain: Option<f64>,
+    /// The shape of the chain's uncertainty in the test of a loop against it
+    /// ([`ChainShape`]). Default `Isotropic`, measured 2026-12-08 (`graph`, release,
+    /// in-process; README, "The chain's whole covariance"): `Full` with the set loop
+    /// heading changes little (seeds 31–60 map error 0.018 / 0.088 / 0.696 → 0.018 / 0.098 /
+    /// 0.696 m; cheap corridor 41 0.222 → 0.196 m, its wrong loops still pass on a chain
+    /// whose summed heading variance reaches 5.3° and swings the end 2 m); with
+    /// `PlateauWithinSet` it mends corridor 41 (0.241 → 0.048 m; seeds 31–60 0.013 / 0.042 /
+    /// 0.241 → 0.013 / 0.048 / 0.211 m, ATE worst 1.585 → 0.734 m) but breaks the good
+    /// corridors 38 (0.017 → 0.108 m) and 26 (0.031 → 0.093 m), whose front end slides
+    /// along the axis at a dead end: tight along the axis, the chain refuses the right
+    /// loops that would take the slide out.
+    pub chain_shape: ChainShape,
     /// A match whose uncertainty region is wider than this (standard deviation along its
     /// weakest direction) pins nothing down and is dropped, meters.
     pub max_match_sigma_m: f64,
@@ -247,6 +259,7 @@ impl Default for LoopClosureConfig {
             unpin_featureless_direction: false,
             score_observed_only: false,
             give_up_beyond_chain: None,
+            chain_shape: ChainShape::Isotropic,
             max_match_sigma_m: 0.5,
             icp: IcpConfig::default(),
             sequential_sigma_m: 0.02,
@@ -291,6 +304,22 @@ pub enum LoopHeadingSigma {
     /// 401 of 413 on a good scanner), so the plateau may tighten the set figure where the
     /// scan's lever arms resolve the heading better, never loosen it.
     PlateauWithinSet,
+}
+
+/// The shape of the chain's uncertainty in the test of a loop against it
+/// ([`LoopClosureConfig::chain_shape`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ChainShape {
+    /// Every step's widest position variance, and its heading's swing, in every direction
+    /// ([`crate::back_end::closure_consistency::chain_variance`]): errs towards accepting.
+    #[default]
+    Isotropic,
+    /// Each step's whole covariance carried to the loop's end, the heading's swing across
+    /// the lever only ([`crate::back_end::closure_consistency::chain_covariance`]): a
+    /// corridor's chain is loose along the axis only by what the front end left
+    /// unmeasured there.
+    Full,
 }
 
 /// Where the sequential edges' covariance comes from

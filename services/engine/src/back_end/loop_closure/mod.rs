@@ -32,8 +32,9 @@
 //! Pure: values in, values out.
 
 use crate::back_end::closure_consistency::{
-    ChainVariance, LoopHypothesis, MeasuredSteps, StepNoise, StepVariance, chain_variance,
-    given_up_to_chain, pair_distance_sq, prior_distance_sq,
+    ChainVariance, LoopHypothesis, MeasuredSteps, StepNoise, StepVariance, chain_covariance,
+    chain_variance, given_up_to_chain, pair_distance_sq, prior_distance_sq, prior_distance_sq_full,
+    swing, to_frame, widest_m2,
 };
 use crate::back_end::pose_graph::{Edge, PoseGraph};
 use crate::scan_matching::correlative::{SearchWindow, voxel_filter};
@@ -43,7 +44,7 @@ use sketchslam_types::{Point2, Pose2, wrap_angle};
 mod config;
 mod loop_match;
 
-pub use config::{LoopClosureConfig, LoopHeadingSigma, SequentialNoise};
+pub use config::{ChainShape, LoopClosureConfig, LoopHeadingSigma, SequentialNoise};
 
 /// A loop edge the back end added.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -84,6 +85,9 @@ pub struct LoopCloser {
     /// Variance of the sequential step ending at each keyframe, as the consistency tests
     /// read it (entry 0: none).
     steps: Vec<ChainVariance>,
+    /// The whole covariance (map axes) of the sequential step ending at each keyframe, as
+    /// the test against the chain reads it with [`ChainShape::Full`] (entry 0: zero).
+    step_covariances: Vec<Matrix3<f64>>,
     /// Loops in the graph, and (same index) what their consistency tests need.
     closures: Vec<LoopClosure>,
     loops: Vec<LoopHypothesis>,
@@ -112,6 +116,7 @@ impl LoopCloser {
             + vec_bytes(&self.points)
             + vec_bytes(&self.travel_m)
             + vec_bytes(&self.steps)
+            + vec_bytes(&self.step_covariances)
             + vec_bytes(&self.closures)
             + vec_bytes(&self.loops)
             + vec_bytes(&self.pending)
@@ -126,6 +131,7 @@ impl LoopCloser {
             points: Vec::new(),
             travel_m: Vec::new(),
             steps: Vec::new(),
+            step_covariances: Vec::new(),
             closures: Vec::new(),
             loops: Vec::new(),
             pending: Vec::new(),
@@ -198,7 +204,7 @@ impl LoopCloser {
         let c = &self.config;
         let thinned = voxel_filter(points, c.voxel_m);
         let index = self.graph.add_node(pose);
-        let (travel, step_variance) = match index.checked_sub(1) {
+        let (travel, step_variance, step_covariance) = match index.checked_sub(1) {
             Some(prev) => {
                 let prev_pose = self.graph.nodes()[prev];
                 let step = prev_pose.between(&pose);
@@ -206,13 +212,16 @@ impl LoopCloser {
                 let measured = step_covariance
                     .filter(|_| c.sequential_noise == SequentialNoise::FrontEnd)
                     .and_then(|cov| measured_step(&cov, pose.heading_rad));
-                let (information, variance) = match measured {
-                    Some(m) => m,
+                let (information, variance, covariance) = match measured {
+                    Some((information, variance, covariance)) => {
+                        (information, variance, covariance)
+                    }
                     None => {
                         let model = self.a_priori_noise();
                         (
                             information(model.position_sigma_m(length_m), model.sigma_rad),
                             model.step(index, length_m),
+                            model.step_covariance(index, length_m),
                         )
                     }
                 };
@@ -225,13 +234,14 @@ impl LoopCloser {
                 };
                 // The pose is finite (the mapper refuses others), so the edge is valid.
                 let _ = self.graph.add_edge(edge);
-                (self.travel_m[prev] + length_m, variance)
+                (self.travel_m[prev] + length_m, variance, covariance)
             }
-            None => (0.0, ChainVariance::ZERO),
+            None => (0.0, ChainVariance::ZERO, Matrix3::zeros()),
         };
         self.points.push(thinned);
         self.travel_m.push(travel);
         self.steps.push(step_variance);
+        self.step_covariances.push(step_covariance);
         let prior = heading_prior_rad.zip(c.heading_prior_sigma_rad);
         if let Some((heading, sigma_rad)) = prior.filter(|(h, _)| h.is_finite() && index > 0) {
             // A heading-only edge from the fixed node 0: e = θ_i − θ_0 − (h − θ_0), its
@@ -298,6 +308,7 @@ impl LoopCloser {
     fn step_noise(&self) -> MeasuredSteps<'_> {
         MeasuredSteps {
             steps: &self.steps,
+            covariances: &self.step_covariances,
             model: self.a_priori_noise(),
         }
     }
@@ -333,6 +344,38 @@ impl LoopCloser {
             })
     }
 
+    /// [`Self::drift_since`] with the chain's whole covariance (map axes,
+    /// [`chain_covariance`]): along the chain, or through one of the last few loops — that
+    /// loop's own covariance carried onto the map and swung about its newer end, plus the
+    /// chains from its ends to `from` and `to` — whichever is tighter in its widest
+    /// direction.
+    fn drift_since_full(&self, from: usize, to: usize) -> Matrix3<f64> {
+        let nodes = self.graph.nodes();
+        let noise = self.step_noise();
+        let end = nodes[to].position();
+        let direct = chain_covariance(nodes, from, to, &noise, end);
+        self.loops
+            .iter()
+            .rev()
+            .take(5)
+            .filter(|l| l.to < to)
+            .map(|l| {
+                let onto_map = to_frame(nodes[l.to].heading_rad).transpose();
+                let g = swing(nodes[l.to].position(), end);
+                let own = g * onto_map * l.covariance * onto_map.transpose() * g.transpose();
+                let new = chain_covariance(nodes, l.to, to, &noise, end);
+                let old = chain_covariance(nodes, l.from, from, &noise, nodes[from].position());
+                own + new + old
+            })
+            .fold(direct, |best, v| {
+                if widest_m2(&v) < widest_m2(&best) {
+                    v
+                } else {
+                    best
+                }
+            })
+    }
+
     /// The consistency tests of [`closure_consistency`] on a matched loop: refused when the
     /// chain cannot explain it; into the graph with every waiting loop that agrees with it
     /// once `min_consistent_loops` agree (or one loop already in the graph near it does);
@@ -353,14 +396,23 @@ impl LoopCloser {
             covariance: h.covariance + given_up,
             ..*h
         };
+        let (d2, chain_m2) = match c.chain_shape {
+            ChainShape::Isotropic => (prior_distance_sq(nodes, &tested, chain), chain.position_m2),
+            ChainShape::Full => {
+                let full = self.drift_since_full(h.from, h.to);
+                (
+                    prior_distance_sq_full(nodes, &tested, &full),
+                    widest_m2(&full),
+                )
+            }
+        };
         // A NaN distance (a singular covariance) is refused too.
-        let d2 = prior_distance_sq(nodes, &tested, chain);
         if d2.is_nan() || d2 > c.consistency_chi2 {
             self.rejected += 1;
             return false;
         }
         found.closure.chain_d2 = d2;
-        found.closure.chain_sigma_m = chain.position_m2.max(0.0).sqrt();
+        found.closure.chain_sigma_m = chain_m2.max(0.0).sqrt();
         let agree = |a: &LoopHypothesis, b: &LoopHypothesis| {
             pair_distance_sq(nodes, a, b, &noise) <= c.consistency_chi2
         };
@@ -547,32 +599,31 @@ fn variance_factor(d2: &[f64]) -> f64 {
     (median / CHI2_3_MEDIAN).max(1.0)
 }
 
-/// A sequential edge's information and the step's variance for the consistency tests,
-/// from the front end's covariance `cov` of the step (translation on the map's axes). The
+/// A sequential edge's information, the step's variance for the consistency tests and its
+/// whole covariance (`cov` itself, for [`ChainShape::Full`]), from the front end's
+/// covariance `cov` of the step (translation on the map's axes). The
 /// edge's error `t2v(Z⁻¹ X_i⁻¹ X_j)` lies in the newer keyframe's frame (heading
 /// `heading_rad`): with `T = diag(R(θ_j)ᵀ, 1)`, `Ω = (T Σ Tᵀ)⁻¹`. The consistency tests
 /// take the position's widest direction (their variance is isotropic). `None` when `cov`
 /// is not a covariance. O(1).
-fn measured_step(cov: &Matrix3<f64>, heading_rad: f64) -> Option<(Matrix3<f64>, ChainVariance)> {
+fn measured_step(
+    cov: &Matrix3<f64>,
+    heading_rad: f64,
+) -> Option<(Matrix3<f64>, ChainVariance, Matrix3<f64>)> {
     if !cov.iter().all(|v| v.is_finite()) {
         return None;
     }
-    let (s, c) = heading_rad.sin_cos();
-    let t = Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0);
+    let t = to_frame(heading_rad);
     // A floor far below any real step's noise keeps Ω finite for a noise-free match.
     let floor = Matrix3::from_diagonal(&nalgebra::Vector3::new(1e-10, 1e-10, 1e-12));
     let rotated = t * cov * t.transpose() + floor;
     let information = rotated.try_inverse()?;
-    let position_m2 = cov
-        .fixed_view::<2, 2>(0, 0)
-        .into_owned()
-        .symmetric_eigenvalues()
-        .max();
+    let position_m2 = widest_m2(cov);
     let variance = ChainVariance {
         position_m2,
         heading_rad2: cov[(2, 2)],
     };
-    (position_m2 >= 0.0 && variance.heading_rad2 >= 0.0).then_some((information, variance))
+    (position_m2 >= 0.0 && variance.heading_rad2 >= 0.0).then_some((information, variance, *cov))
 }
 
 /// Diagonal information matrix of independent x, y (sigma_m) and heading (sigma_rad).
@@ -596,7 +647,8 @@ mod tests {
         // Loose along the map's x (a corridor along x), tight across; the keyframe faces
         // +y, so the map's x is its −y: the edge's error is loose in its y.
         let cov = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.01, 1e-4, 1e-6));
-        let (info, variance) = measured_step(&cov, FRAC_PI_2).unwrap();
+        let (info, variance, whole) = measured_step(&cov, FRAC_PI_2).unwrap();
+        assert_eq!(whole, cov);
         assert!((info[(0, 0)] - 1e4).abs() < 1e-2, "{info}");
         assert!((info[(1, 1)] - 100.0).abs() < 1e-4, "{info}");
         assert!((info[(2, 2)] - 1e6).abs() < 2.0, "{info}");
@@ -694,6 +746,17 @@ mod tests {
         drifted_return_is_closed(LoopClosureConfig {
             min_travel_m: 5.0,
             two_way_check: true,
+            ..LoopClosureConfig::default()
+        });
+    }
+
+    #[test]
+    fn a_drifted_return_is_closed_against_the_whole_chain_too() {
+        // The route's drift fits the chain's whole covariance as it fits the isotropic
+        // one: the loops close, and each keeps the chain's widest deviation.
+        drifted_return_is_closed(LoopClosureConfig {
+            min_travel_m: 5.0,
+            chain_shape: ChainShape::Full,
             ..LoopClosureConfig::default()
         });
     }
@@ -901,6 +964,30 @@ mod tests {
         assert!(!lc.verify(wrong, 60));
         assert_eq!(lc.rejected(), 1);
         assert!(lc.closures().is_empty() && lc.pending.is_empty());
+    }
+
+    #[test]
+    fn a_look_alike_a_door_over_passes_the_isotropic_chain_and_not_the_whole_one() {
+        // Keyframe 60 matched keyframe 19 0.9 m further along the corridor. The chain
+        // 19 → 60 (41 a-priori steps of 0.03 m and 0.5°, out to x = 19.5 and back) has
+        // position variance 41 · 0.03² ≈ 0.037 m² on its own, and its headings swing the end
+        // across the corridor by Σ (0.5°)² · lever² ≈ 0.11 m² more (levers 0.5–10 m along
+        // x). Isotropic, that swing counts along the corridor too: d² ≈ 0.81 / 0.15 ≈ 5.5,
+        // inside the bound; with the chain's whole covariance the axis keeps 0.037 m²:
+        // d² ≈ 0.81 / 0.04 ≈ 20, refused.
+        let mut lc = out_and_back();
+        let d2 = |lc: &LoopCloser| lc.closures.last().map_or(f64::NAN, |c| c.chain_d2);
+        lc.config.min_consistent_loops = 1;
+        assert!(lc.verify(offered(&lc, 19, 60, 0.9), 60));
+        assert!((4.0..7.0).contains(&d2(&lc)), "{}", d2(&lc));
+        let mut lc = out_and_back();
+        lc.config.min_consistent_loops = 1;
+        lc.config.chain_shape = ChainShape::Full;
+        assert!(!lc.verify(offered(&lc, 19, 60, 0.9), 60));
+        assert_eq!(lc.rejected(), 1);
+        // The same match where it belongs passes the whole chain.
+        assert!(lc.verify(offered(&lc, 19, 60, 0.0), 60));
+        assert!(d2(&lc) < 1e-6, "{}", d2(&lc));
     }
 
     #[test]
