@@ -2,7 +2,7 @@
 //! of leaving them open (`graph-open`: the same front end with no back end), so a table can
 //! show what closing loops adds — or costs.
 
-use sketchslam_engine::back_end::loop_closure::{LoopClosureConfig, LoopHeadingSigma};
+use sketchslam_engine::back_end::loop_closure::{ChainShape, LoopClosureConfig, LoopHeadingSigma};
 use sketchslam_engine::back_end::pose_graph::{OptimizeConfig, Preconditioning};
 use sketchslam_engine::localization::mcl::MclConfig;
 use sketchslam_engine::localization::observation_model::ObservationModel;
@@ -87,6 +87,10 @@ pub struct RunMethod {
     /// Methods that close loops: where a loop edge's heading deviation comes from
     /// (`LoopClosureConfig::loop_heading`) when set, the engine's default otherwise.
     pub loop_heading: Option<LoopHeadingSigma>,
+    /// Methods that close loops: the shape of the chain's uncertainty in the test of a
+    /// loop against it (`LoopClosureConfig::chain_shape`) when set, the engine's default
+    /// otherwise.
+    pub chain_shape: Option<ChainShape>,
     /// `evaluate --repeat`: sample `k` of the run turns the map frame by a further
     /// [`crate::samples::sample_turn_deg`]`(k)` (methods without a drawing) and adds `k` to
     /// the engine's seed. 0, the plain run, by default.
@@ -117,6 +121,7 @@ impl From<Method> for RunMethod {
             keyframe_step: None,
             give_up_beyond_chain: None,
             loop_heading: None,
+            chain_shape: None,
             sample: 0,
         }
     }
@@ -160,6 +165,7 @@ impl RunMethod {
                         None => closure.give_up_beyond_chain,
                     },
                     loop_heading: self.loop_heading.unwrap_or(closure.loop_heading),
+                    chain_shape: self.chain_shape.unwrap_or(closure.chain_shape),
                     optimize: OptimizeConfig {
                         preconditioning: self
                             .preconditioning
@@ -363,6 +369,15 @@ mod tests {
             m.loop_heading = Some(asked);
             assert_eq!(heading(&m), Some(asked));
         }
+    }
+
+    #[test]
+    fn the_chain_shape_asked_for_reaches_the_loop_closer() {
+        let shape = |m: &RunMethod| m.config(1).loop_closure.map(|c| c.chain_shape);
+        let mut m = RunMethod::from(Method::Graph);
+        assert_eq!(shape(&m), Some(LoopClosureConfig::default().chain_shape));
+        m.chain_shape = Some(ChainShape::Full);
+        assert_eq!(shape(&m), Some(ChainShape::Full));
     }
 
     #[test]

@@ -36,7 +36,7 @@
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
-use sketchslam_engine::back_end::loop_closure::LoopHeadingSigma;
+use sketchslam_engine::back_end::loop_closure::{ChainShape, LoopHeadingSigma};
 use sketchslam_engine::back_end::pose_graph::Preconditioning;
 use sketchslam_engine::localization::observation_model::ObservationModel;
 use sketchslam_engine::mapper::{KeyframeStepModel, Method, SketchHeadingView};
@@ -190,6 +190,11 @@ struct Args {
     /// `loop_heading`).
     #[arg(long, value_parser = parse_loop_heading)]
     loop_heading: Option<LoopHeadingSigma>,
+    /// In-process runs of the methods that close loops: the chain's uncertainty in the
+    /// test of a loop against it, `isotropic` (the default) or `full` (each step's whole
+    /// covariance carried to the loop's end; the engine's `chain_shape`).
+    #[arg(long, value_parser = parse_chain_shape)]
+    chain_shape: Option<ChainShape>,
     /// Tell the mapper each simulated world's own wheel error model (its scenario's
     /// `[odometry]`, as the session request's `odometry_noise`) instead of the service's
     /// default, as a user who knows their robot would; datasets keep the default.
@@ -204,6 +209,10 @@ struct Args {
 
 fn parse_loop_heading(s: &str) -> Result<LoopHeadingSigma, String> {
     by_wire_name(s, "set, plateau or plateau-within-set")
+}
+
+fn parse_chain_shape(s: &str) -> Result<ChainShape, String> {
+    by_wire_name(s, "isotropic or full")
 }
 
 fn parse_sketch_start(s: &str) -> Result<bool, String> {
@@ -355,6 +364,10 @@ fn main() -> Result<()> {
     only.apply("--loop-heading", args.loop_heading, any(), |m, &h| {
         m.loop_heading = Some(h)
     })?;
+    only.apply("--chain-shape", args.chain_shape, any(), |m, &c| {
+        m.chain_shape = Some(c)
+    })?;
+
     only.apply(
         "--icp-hold-min-points",
         args.icp_hold_min_points,
