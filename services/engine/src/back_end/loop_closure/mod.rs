@@ -321,27 +321,22 @@ impl LoopCloser {
         let nodes = self.graph.nodes();
         let noise = self.step_noise();
         let direct = chain_variance(nodes, from, to, &noise, nodes[to].position());
-        self.loops
-            .iter()
-            .rev()
-            .take(5)
-            .filter(|l| l.to < to)
-            .map(|l| {
-                let own = ChainVariance {
-                    position_m2: l.covariance[(0, 0)].max(l.covariance[(1, 1)]),
-                    heading_rad2: l.covariance[(2, 2)],
-                };
-                let new = chain_variance(nodes, l.to, to, &noise, nodes[to].position());
-                let old = chain_variance(nodes, l.from, from, &noise, nodes[from].position());
-                own.plus(new).plus(old)
-            })
-            .fold(direct, |best, v| {
-                if v.position_m2 < best.position_m2 {
-                    v
-                } else {
-                    best
-                }
-            })
+        let through_loops = self.loops_before(to).map(|l| {
+            let own = ChainVariance {
+                position_m2: l.covariance[(0, 0)].max(l.covariance[(1, 1)]),
+                heading_rad2: l.covariance[(2, 2)],
+            };
+            let new = chain_variance(nodes, l.to, to, &noise, nodes[to].position());
+            let old = chain_variance(nodes, l.from, from, &noise, nodes[from].position());
+            own.plus(new).plus(old)
+        });
+        tightest(direct, through_loops, |v| v.position_m2)
+    }
+
+    /// The last few loops in the graph older than keyframe `to`, newest first: the routes
+    /// [`Self::drift_since`] may take instead of the chain.
+    fn loops_before(&self, to: usize) -> impl Iterator<Item = &LoopHypothesis> {
+        self.loops.iter().rev().take(5).filter(move |l| l.to < to)
     }
 
     /// [`Self::drift_since`] with the chain's whole covariance (map axes,
@@ -354,26 +349,15 @@ impl LoopCloser {
         let noise = self.step_noise();
         let end = nodes[to].position();
         let direct = chain_covariance(nodes, from, to, &noise, end);
-        self.loops
-            .iter()
-            .rev()
-            .take(5)
-            .filter(|l| l.to < to)
-            .map(|l| {
-                let onto_map = to_frame(nodes[l.to].heading_rad).transpose();
-                let g = swing(nodes[l.to].position(), end);
-                let own = g * onto_map * l.covariance * onto_map.transpose() * g.transpose();
-                let new = chain_covariance(nodes, l.to, to, &noise, end);
-                let old = chain_covariance(nodes, l.from, from, &noise, nodes[from].position());
-                own + new + old
-            })
-            .fold(direct, |best, v| {
-                if widest_m2(&v) < widest_m2(&best) {
-                    v
-                } else {
-                    best
-                }
-            })
+        let through_loops = self.loops_before(to).map(|l| {
+            let onto_map = to_frame(nodes[l.to].heading_rad).transpose();
+            let g = swing(nodes[l.to].position(), end);
+            let own = g * onto_map * l.covariance * onto_map.transpose() * g.transpose();
+            let new = chain_covariance(nodes, l.to, to, &noise, end);
+            let old = chain_covariance(nodes, l.from, from, &noise, nodes[from].position());
+            own + new + old
+        });
+        tightest(direct, through_loops, widest_m2)
     }
 
     /// The consistency tests of [`closure_consistency`] on a matched loop: refused when the
@@ -624,6 +608,14 @@ fn measured_step(
         heading_rad2: cov[(2, 2)],
     };
     (position_m2 >= 0.0 && variance.heading_rad2 >= 0.0).then_some((information, variance, *cov))
+}
+
+/// The candidate with the smallest `widest` position variance, `first` on a tie. O(n).
+fn tightest<T>(first: T, others: impl Iterator<Item = T>, widest: impl Fn(&T) -> f64) -> T {
+    others.fold(
+        first,
+        |best, v| if widest(&v) < widest(&best) { v } else { best },
+    )
 }
 
 /// Diagonal information matrix of independent x, y (sigma_m) and heading (sigma_rad).
