@@ -48,17 +48,20 @@ pub fn audit(closed: &[ClosedLoop], truth: &[StampedPose]) -> Vec<AuditedLoop> {
 }
 
 /// `loops.csv`: one row per loop, stamps in seconds; with the match's score and the chain
-/// test each loop passed (its d² and the chain's deviation, meters), so a wrong loop's row
-/// tells whether the match or the test let it in.
+/// test each loop passed (its d², the chain's deviation in meters and in degrees, and the
+/// heading deviation the loop claimed), so a wrong loop's row tells whether the match or
+/// the test let it in, and through which slack.
 pub fn loops_csv(loops: &[AuditedLoop]) -> String {
-    let mut csv =
-        String::from("from_t,to_t,x,y,theta,error_m,error_deg,off,score,chain_d2,chain_sigma_m\n");
+    let mut csv = String::from(
+        "from_t,to_t,x,y,theta,error_m,error_deg,off,score,chain_d2,chain_sigma_m,\
+         chain_sigma_deg,loop_sigma_deg\n",
+    );
     for l in loops {
         let c = &l.closed;
         let m = c.measurement;
         let _ = writeln!(
             csv,
-            "{:.6},{:.6},{:.4},{:.4},{:.5},{:.4},{:.3},{},{:.3},{:.3},{:.4}",
+            "{:.6},{:.6},{:.4},{:.4},{:.5},{:.4},{:.3},{},{:.3},{:.3},{:.4},{:.3},{:.3}",
             c.from_stamp_ns as f64 * 1e-9,
             c.to_stamp_ns as f64 * 1e-9,
             m.x,
@@ -69,7 +72,9 @@ pub fn loops_csv(loops: &[AuditedLoop]) -> String {
             u8::from(l.is_off()),
             c.score,
             c.chain_d2,
-            c.chain_sigma_m
+            c.chain_sigma_m,
+            c.chain_sigma_deg,
+            c.loop_sigma_deg
         );
     }
     csv
@@ -100,6 +105,8 @@ mod tests {
             score: 0.9,
             chain_d2: 2.5,
             chain_sigma_m: 0.4,
+            chain_sigma_deg: 1.5,
+            loop_sigma_deg: 1.0,
         };
         let audited = audit(&[closed], &truth);
         assert_eq!(audited.len(), 1);
@@ -128,6 +135,8 @@ mod tests {
             score: 0.8,
             chain_d2: 4.5,
             chain_sigma_m: 1.25,
+            chain_sigma_deg: 5.25,
+            loop_sigma_deg: 0.5,
         };
         let audited = AuditedLoop {
             closed,
@@ -138,11 +147,17 @@ mod tests {
         let mut lines = csv.lines();
         assert_eq!(
             lines.next(),
-            Some("from_t,to_t,x,y,theta,error_m,error_deg,off,score,chain_d2,chain_sigma_m")
+            Some(
+                "from_t,to_t,x,y,theta,error_m,error_deg,off,score,chain_d2,chain_sigma_m,\
+                 chain_sigma_deg,loop_sigma_deg"
+            )
         );
         assert_eq!(
             lines.next(),
-            Some("1.500000,9.250000,3.0000,-0.2500,0.50000,3.2500,-0.500,1,0.800,4.500,1.2500")
+            Some(
+                "1.500000,9.250000,3.0000,-0.2500,0.50000,3.2500,-0.500,1,0.800,4.500,1.2500,\
+                 5.250,0.500"
+            )
         );
         assert_eq!(lines.next(), None);
     }

@@ -628,6 +628,8 @@ impl Mapper {
                     score: c.score,
                     chain_d2: c.chain_d2,
                     chain_sigma_m: c.chain_sigma_m,
+                    chain_sigma_deg: c.chain_sigma_deg,
+                    loop_sigma_deg: c.loop_sigma_deg,
                 })
             })
             .collect();

@@ -51,6 +51,10 @@ pub struct ClosedLoop {
     pub chain_d2: f64,
     /// The deviation the chain between the two keyframes was given in that test, meters.
     pub chain_sigma_m: f64,
+    /// The chain's heading deviation in that test, degrees.
+    pub chain_sigma_deg: f64,
+    /// The heading deviation the loop claimed in that test, degrees.
+    pub loop_sigma_deg: f64,
 }
 
 /// What gave a pose on the drawing.

@@ -165,6 +165,8 @@ impl LoopCloser {
             score,
             chain_d2: f64::NAN,
             chain_sigma_m: f64::NAN,
+            chain_sigma_deg: f64::NAN,
+            loop_sigma_deg: f64::NAN,
         };
         Some(MatchedLoop {
             closure,

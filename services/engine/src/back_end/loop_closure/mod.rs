@@ -62,6 +62,11 @@ pub struct LoopClosure {
     /// The standard deviation the chain between the loop's ends was given in that test,
     /// meters (position, widest direction; [`ChainVariance`]); NaN before it was.
     pub chain_sigma_m: f64,
+    /// The chain's heading deviation in that test, degrees; NaN before it was.
+    pub chain_sigma_deg: f64,
+    /// The heading deviation the loop itself claimed in that test (its edge's, before any
+    /// direction was given up), degrees; NaN before it was.
+    pub loop_sigma_deg: f64,
 }
 
 /// What adding a keyframe did.
@@ -380,13 +385,18 @@ impl LoopCloser {
             covariance: h.covariance + given_up,
             ..*h
         };
-        let (d2, chain_m2) = match c.chain_shape {
-            ChainShape::Isotropic => (prior_distance_sq(nodes, &tested, chain), chain.position_m2),
+        let (d2, chain_m2, chain_rad2) = match c.chain_shape {
+            ChainShape::Isotropic => (
+                prior_distance_sq(nodes, &tested, chain),
+                chain.position_m2,
+                chain.heading_rad2,
+            ),
             ChainShape::Full => {
                 let full = self.drift_since_full(h.from, h.to);
                 (
                     prior_distance_sq_full(nodes, &tested, &full),
                     widest_m2(&full),
+                    full[(2, 2)],
                 )
             }
         };
@@ -397,6 +407,8 @@ impl LoopCloser {
         }
         found.closure.chain_d2 = d2;
         found.closure.chain_sigma_m = chain_m2.max(0.0).sqrt();
+        found.closure.chain_sigma_deg = chain_rad2.max(0.0).sqrt().to_degrees();
+        found.closure.loop_sigma_deg = h.covariance[(2, 2)].max(0.0).sqrt().to_degrees();
         let agree = |a: &LoopHypothesis, b: &LoopHypothesis| {
             pair_distance_sq(nodes, a, b, &noise) <= c.consistency_chi2
         };
@@ -805,6 +817,7 @@ mod tests {
     /// 0.2° of heading per keyframe, so it returns to its start about 10° and 1 m off;
     /// `config`'s loop closure must close it and correct the return within 0.1 m.
     fn drifted_return_is_closed(config: LoopClosureConfig) {
+        let loop_heading = config.loop_heading;
         let mut lc = LoopCloser::new(config);
         let mut truth = Vec::new();
         for i in 0..16 {
@@ -860,6 +873,19 @@ mod tests {
         let chi2 = LoopClosureConfig::default().consistency_chi2;
         for c in lc.closures() {
             assert!((0.0..=chi2).contains(&c.chain_d2), "{c:?}");
+            // The loop's heading deviation (the set 1° unless read from the match), and a
+            // chain that drifted some in heading.
+            if loop_heading == LoopHeadingSigma::Set {
+                assert!((c.loop_sigma_deg - 1.0).abs() < 1e-9, "{c:?}");
+            }
+            assert!(
+                c.loop_sigma_deg > 0.0 && c.loop_sigma_deg.is_finite(),
+                "{c:?}"
+            );
+            assert!(
+                c.chain_sigma_deg > 0.0 && c.chain_sigma_deg.is_finite(),
+                "{c:?}"
+            );
             assert!(
                 c.chain_sigma_m > 0.0 && c.chain_sigma_m.is_finite(),
                 "{c:?}"
@@ -929,6 +955,8 @@ mod tests {
                 score: 0.9,
                 chain_d2: f64::NAN,
                 chain_sigma_m: f64::NAN,
+                chain_sigma_deg: f64::NAN,
+                loop_sigma_deg: f64::NAN,
             },
             hypothesis: LoopHypothesis {
                 from,
