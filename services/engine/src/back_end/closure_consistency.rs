@@ -378,13 +378,7 @@ pub fn pair_distance_sq(
     let e = residual(&c2.measurement, &predicted);
     // Z₁'s own uncertainty at b₂: its position part (widest direction) and its heading
     // swinging the chain b₁ → b₂ about b₁.
-    let c1_pos = c1
-        .covariance
-        .fixed_view::<2, 2>(0, 0)
-        .into_owned()
-        .symmetric_eigenvalues()
-        .max()
-        .max(0.0);
+    let c1_pos = widest_m2(&c1.covariance).max(0.0);
     let c1_rad2 = c1.covariance[(2, 2)].max(0.0);
     let swing_m = nodes[b2].position().distance(&nodes[b1].position());
     let first_loop = ChainVariance {

@@ -216,11 +216,12 @@ impl LoopCloser {
                 let length_m = step.position().norm();
                 let measured = step_covariance
                     .filter(|_| c.sequential_noise == SequentialNoise::FrontEnd)
-                    .and_then(|cov| measured_step(&cov, pose.heading_rad));
+                    .and_then(|cov| {
+                        let (information, variance) = measured_step(&cov, pose.heading_rad)?;
+                        Some((information, variance, cov))
+                    });
                 let (information, variance, covariance) = match measured {
-                    Some((information, variance, covariance)) => {
-                        (information, variance, covariance)
-                    }
+                    Some(m) => m,
                     None => {
                         let model = self.a_priori_noise();
                         (
@@ -595,17 +596,13 @@ fn variance_factor(d2: &[f64]) -> f64 {
     (median / CHI2_3_MEDIAN).max(1.0)
 }
 
-/// A sequential edge's information, the step's variance for the consistency tests and its
-/// whole covariance (`cov` itself, for [`ChainShape::Full`]), from the front end's
-/// covariance `cov` of the step (translation on the map's axes). The
+/// A sequential edge's information and the step's variance for the consistency tests,
+/// from the front end's covariance `cov` of the step (translation on the map's axes). The
 /// edge's error `t2v(Z⁻¹ X_i⁻¹ X_j)` lies in the newer keyframe's frame (heading
 /// `heading_rad`): with `T = diag(R(θ_j)ᵀ, 1)`, `Ω = (T Σ Tᵀ)⁻¹`. The consistency tests
 /// take the position's widest direction (their variance is isotropic). `None` when `cov`
 /// is not a covariance. O(1).
-fn measured_step(
-    cov: &Matrix3<f64>,
-    heading_rad: f64,
-) -> Option<(Matrix3<f64>, ChainVariance, Matrix3<f64>)> {
+fn measured_step(cov: &Matrix3<f64>, heading_rad: f64) -> Option<(Matrix3<f64>, ChainVariance)> {
     if !cov.iter().all(|v| v.is_finite()) {
         return None;
     }
@@ -619,7 +616,7 @@ fn measured_step(
         position_m2,
         heading_rad2: cov[(2, 2)],
     };
-    (position_m2 >= 0.0 && variance.heading_rad2 >= 0.0).then_some((information, variance, *cov))
+    (position_m2 >= 0.0 && variance.heading_rad2 >= 0.0).then_some((information, variance))
 }
 
 /// The candidate with the smallest `widest` position variance, `first` on a tie. O(n).
@@ -651,8 +648,7 @@ mod tests {
         // Loose along the map's x (a corridor along x), tight across; the keyframe faces
         // +y, so the map's x is its −y: the edge's error is loose in its y.
         let cov = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.01, 1e-4, 1e-6));
-        let (info, variance, whole) = measured_step(&cov, FRAC_PI_2).unwrap();
-        assert_eq!(whole, cov);
+        let (info, variance) = measured_step(&cov, FRAC_PI_2).unwrap();
         assert!((info[(0, 0)] - 1e4).abs() < 1e-2, "{info}");
         assert!((info[(1, 1)] - 100.0).abs() < 1e-4, "{info}");
         assert!((info[(2, 2)] - 1e6).abs() < 2.0, "{info}");
@@ -676,17 +672,32 @@ mod tests {
             // Without a covariance from the front end, the a-priori figures.
             lc.add_keyframe_with_step(Pose2::new(1.0, 0.0, 0.0), &[], None, None);
             let edges = lc.graph.edges();
-            (edges[0].information, edges[1].information, lc.steps.clone())
+            let whole = lc.step_covariances.clone();
+            (
+                edges[0].information,
+                edges[1].information,
+                lc.steps.clone(),
+                whole,
+            )
         };
         // 0.02 + 0.02·0.5 = 0.03 m and 0.5°, whatever the front end saw.
         let a_priori = information(0.03, 0.5f64.to_radians());
-        let (first, second, _) = edge_information(SequentialNoise::APriori);
+        let (first, second, _, _) = edge_information(SequentialNoise::APriori);
         assert!((first - a_priori).norm() < 1e-6 && (second - a_priori).norm() < 1e-6);
-        let (first, second, steps) = edge_information(SequentialNoise::FrontEnd);
+        let (first, second, steps, whole) = edge_information(SequentialNoise::FrontEnd);
         assert!((first[(0, 0)] - 100.0).abs() < 1e-4 && (first[(1, 1)] - 1e4).abs() < 1e-2);
         assert!((second - a_priori).norm() < 1e-6);
         assert_eq!(steps[1].position_m2, 0.01);
         assert!((steps[2].position_m2 - 0.03f64.powi(2)).abs() < 1e-12);
+        // The whole covariance as the front end gave it (map axes), the a-priori diagonal
+        // where it gave none.
+        assert_eq!(whole[1], step);
+        let diagonal = Matrix3::from_diagonal(&nalgebra::Vector3::new(
+            0.0009,
+            0.0009,
+            0.5f64.to_radians().powi(2),
+        ));
+        assert!((whole[2] - diagonal).norm() < 1e-12, "{}", whole[2]);
     }
 
     /// What a robot at `pose` sees of a 10 × 6 m room with an inner pillar, as points
